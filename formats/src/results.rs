@@ -58,21 +58,25 @@ pub struct ViewResult {
     pub quality: Option<Quality>,
     /// Pixels whose shading refined each effect to per-pixel rate (multi-rate schemes only).
     pub refined_pixels: Option<RefinedPixels>,
-    /// Shading-cache activity (`tile-pair-cache` only).
+    /// Shading-cache activity (cache schemes: `tile-pair-cache`, `amfs`, `texel`).
     pub shading_cache: Option<ShadingCacheStats>,
 }
 
-/// Activity of the tile-pair shading cache in one view.
+/// Activity of a shading cache in one view.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ShadingCacheStats {
     /// Coarse fragments looked up.
     pub queries: u64,
+    /// Hits on shading of this view.
     pub local_hits: u64,
+    /// Hits on shading of the other view: after the reuse test (tile-pair), or as it is
+    /// (object-space caches, which are view-independent).
     pub cross_view_hits: u64,
     /// Hits whose reuse test failed.
     pub rejected: u64,
     pub evictions: u64,
-    /// Coarse blocks whose shader was skipped (all four fragments reused).
+    /// Coarse blocks (object space: cells) whose shader was skipped (all four fragments or
+    /// corners reused).
     pub blocks_skipped: u64,
     pub blocks_shaded: u64,
 }

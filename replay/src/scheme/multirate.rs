@@ -11,6 +11,8 @@
 //! Refining every effect (threshold 0) recomputes all terms per pixel with the same code and
 //! summation order as `per-pixel`, so the image is bit-identical to the reference.
 
+mod object_space;
+
 use glam::{Vec2, Vec3, Vec4};
 
 use shadetrace_formats::LightKind;
@@ -26,6 +28,7 @@ use crate::memory::AccessLog;
 use crate::shader::{compose, Effects, LightTerm, LightingInputs};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::vertex_stage::SUBPIXEL;
+use object_space::{CellBlock, LaneSource};
 
 /// Coarse shading rate (§3.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -254,6 +257,9 @@ impl ShadingScheme for Multirate {
             cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
             sequence: 0,
             reuse_packer: SimdPacker::new(simd_width, lights),
+            cells: Vec::new(),
+            quad_params: Vec::new(),
+            sources: Vec::new(),
         })
     }
 }
@@ -353,6 +359,11 @@ struct MultirateJob {
     /// Tile-pair sequence of the last unit (the cache is cleared when it changes).
     sequence: u32,
     reuse_packer: SimdPacker,
+    /// Object-space schemes: each block's cell, each quad's lane parameters, and where each
+    /// quad's lanes read their terms (the blocks are cells, not screen squares).
+    cells: Vec<CellBlock>,
+    quad_params: Vec<[Vec2; 4]>,
+    sources: Vec<[LaneSource; 4]>,
 }
 
 const NONE: Effects = Effects {
@@ -498,10 +509,11 @@ impl MultirateJob {
             normals[i] = a.normal;
         }
         // The block's own cache keys, computed once for the query and the store.
-        let keys = self.cache.as_ref().filter(|_| !exact).map(|(c, _)| match c.space {
-            CacheSpace::Screen => std::array::from_fn(|i| Self::key(b, i, ctx.view)),
-            space => object_keys(ctx, b, &normals, space),
-        });
+        let keys: Option<[CacheKey; 4]> = self
+            .cache
+            .as_ref()
+            .filter(|_| !exact)
+            .map(|_| std::array::from_fn(|i| Self::key(b, i, ctx.view)));
         if let Some(keys) = &keys {
             if self.reuse_from_cache(ctx, b, keys, &positions, &normals, &pixels) {
                 return;
@@ -565,11 +577,6 @@ impl MultirateJob {
         let Some((config, mut cache)) = self.cache.take() else {
             return false;
         };
-        if config.space != CacheSpace::Screen {
-            let all = self.reuse_object_space(b, &mut cache, keys, pixels);
-            self.cache = Some((config, cache));
-            return all;
-        }
         let n = self.lights;
         let other = 1 - ctx.view;
         let project = |p: Vec3, view: u8| {
@@ -682,8 +689,7 @@ impl MultirateJob {
         all
     }
 
-    /// Stores the four freshly shaded fragments of a block under their keys (own view in
-    /// screen space, the surface cell in object space).
+    /// Stores the four freshly shaded fragments of a block under their own view's keys.
     fn store_in_cache(
         &mut self,
         ctx: &UnitContext,
@@ -704,47 +710,10 @@ impl MultirateJob {
                         r_dot_l: r_dot_l(ctx, positions[i], normal),
                         terms: b.terms[i * n..(i + 1) * n].to_vec(),
                         refine: b.refine,
+                        view: ctx.view,
                     },
                 );
             }
-        }
-    }
-
-    /// Object-space reuse (AMFS, texel): a hit is reused as it is, whichever view stored it,
-    /// with no reuse test (view-independent caching, as those systems do).
-    fn reuse_object_space(
-        &mut self,
-        b: &mut CoarseBlock,
-        cache: &mut ShadingCache,
-        keys: &[CacheKey; 4],
-        pixels: &[u32; 4],
-    ) -> bool {
-        let n = self.lights;
-        let mut hits = 0;
-        let mut refine = NONE;
-        let mut terms = vec![LightTerm::default(); 4 * n];
-        for i in 0..4 {
-            let lane = self.coarse_lane(pixels[i], true);
-            if i == 0 {
-                b.first_lane = lane;
-            }
-            self.coarse_lanes[lane].blocks.take(Block::CacheQuery);
-            cache.counters.queries += 1;
-            if let Some(e) = cache.get(&keys[i]) {
-                terms[i * n..(i + 1) * n].copy_from_slice(&e.terms);
-                refine = union(refine, e.refine);
-                hits += 1;
-                cache.counters.local_hits += 1;
-            }
-        }
-        if hits == 4 {
-            cache.counters.blocks_skipped += 1;
-            b.terms.copy_from_slice(&terms);
-            b.refine = refine;
-            true
-        } else {
-            cache.counters.blocks_shaded += 1;
-            false
         }
     }
 
@@ -814,25 +783,21 @@ impl MultirateJob {
 
     /// Fine stage of one quad: albedo per pixel, coarse terms resampled, refined effects
     /// recomputed; returns the four lane colours.
-    fn shade_quad(&mut self, ctx: &UnitContext, quad: &ShadeQuad, acc: &mut Accounting) -> [Vec4; 4] {
+    fn shade_quad(&mut self, ctx: &UnitContext, index: usize, quad: &ShadeQuad, acc: &mut Accounting) -> [Vec4; 4] {
         let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
         let duv_dx = lanes[1].uv - lanes[0].uv;
         let duv_dy = lanes[2].uv - lanes[0].uv;
-        let Some(block) = self.blocks.iter().position(|b| b.contains(quad.x, quad.y)) else {
+        let Some(sources) = self.lane_sources(index, quad) else {
             return [Vec4::ZERO; 4];
         };
         let material = ctx.triangle.material;
         let mut out = [Vec4::ZERO; 4];
         for (l, lane) in lanes.iter().enumerate() {
             let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let (block, w, coarse_lane) = sources[l];
             let b = &self.blocks[block];
-            let (refine, w) = (b.refine, b.weights(x, y));
+            let refine = b.refine;
             let key = effects_bits(refine);
-            let coarse_lane = if b.contains(x, y) {
-                b.first_lane + b.fragment_of(x, y)
-            } else {
-                b.first_lane
-            };
             for (k, term) in self.terms.iter_mut().enumerate() {
                 let s = |i: usize| b.terms[i * self.lights + k];
                 let mix =
@@ -868,6 +833,29 @@ impl MultirateJob {
             (lane.useful, lane.pixel, lane.key, lane.coarse_lane) = (useful, pixel, key, coarse_lane);
         }
         out
+    }
+
+    /// Per lane of quad `index`: its block, bilinear weights and coarse lane. Screen blocks
+    /// are found by position (a quad lies in one block); object-space lanes were assigned to
+    /// cells, and belong to the coarse lane of their nearest corner.
+    fn lane_sources(&self, index: usize, quad: &ShadeQuad) -> Option<[(usize, [f32; 4], usize); 4]> {
+        if let Some(sources) = self.sources.get(index) {
+            return Some(sources.map(|s| {
+                let nearest = (0..4).fold(0, |m, i| if s.weights[i] > s.weights[m] { i } else { m });
+                (s.block, s.weights, self.blocks[s.block].first_lane + nearest)
+            }));
+        }
+        let block = self.blocks.iter().position(|b| b.contains(quad.x, quad.y))?;
+        let b = &self.blocks[block];
+        Some(std::array::from_fn(|l| {
+            let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let coarse_lane = if b.contains(x, y) {
+                b.first_lane + b.fragment_of(x, y)
+            } else {
+                b.first_lane
+            };
+            (block, b.weights(x, y), coarse_lane)
+        }))
     }
 
     /// Issues coarse lanes (coarse stage) and cache-query lanes (reuse stage) of a range as
@@ -951,59 +939,6 @@ fn sample_fixed(s: Vec2) -> (i64, i64) {
 fn sample_attributes(ctx: &UnitContext, s: Vec2) -> LaneAttributes {
     let (px, py) = sample_fixed(s);
     ctx.attributes_at(px, py)
-}
-
-/// Object-space cache keys of a block's four samples. The surface parameter is the texture
-/// coordinate on textured surfaces (whose UV atlas follows the patch) or the barycentric
-/// coordinate in the triangle (a triangle without patch id is its own patch). The grid step
-/// is the parameter change across one coarse fragment on screen, rounded to a power of two
-/// (AMFS's quantized resolution, Hillesland & Yang's mip level); in texel space it is halved
-/// where the block's normals vary, so curved surfaces get a finer grid.
-fn object_keys(ctx: &UnitContext, b: &CoarseBlock, normals: &[Vec3; 4], space: CacheSpace) -> [CacheKey; 4] {
-    let textured = ctx.env.materials[ctx.triangle.material as usize]
-        .base_color_texture
-        .is_some();
-    let params: [Vec2; 4] = std::array::from_fn(|i| {
-        let s = b.samples[i];
-        let (px, py) = sample_fixed(s);
-        if textured {
-            ctx.attributes_at(px, py).uv
-        } else {
-            let bary = ctx.setup.original_bary(ctx.setup.edges(px, py));
-            Vec2::new(bary.y, bary.z)
-        }
-    });
-    let dx = (b.samples[1].x - b.samples[0].x).abs().max(1.0);
-    let dy = (b.samples[2].y - b.samples[0].y).abs().max(1.0);
-    let per_pixel = ((params[1] - params[0]).length() / dx).max((params[2] - params[0]).length() / dy);
-    let extent = per_pixel * (b.size / 2) as f32;
-    let mut level = if extent.is_finite() && extent > 0.0 {
-        (-extent.log2()).round() as i32
-    } else {
-        0
-    };
-    if space == CacheSpace::Texture {
-        let n: [Vec3; 4] = normals.map(|n| n.normalize_or(Vec3::Y));
-        let avg = (n[0] + n[1] + n[2] + n[3]).normalize_or(n[0]);
-        if n.iter().any(|v| v.dot(avg) < 0.995) {
-            level += 1;
-        }
-    }
-    let level = level.clamp(-16, 24);
-    let step = libm::exp2f(-level as f32);
-    let surface = match space {
-        CacheSpace::Texture => ctx.triangle.mesh as u64,
-        _ if ctx.triangle.patch != u32::MAX => ctx.triangle.patch as u64,
-        // A triangle without a patch id is its own patch (ids above any u32 patch id).
-        _ => (1 << 32) | ctx.setup.prim as u64,
-    };
-    std::array::from_fn(|i| CacheKey {
-        qx: (params[i].x / step).floor() as i32,
-        qy: (params[i].y / step).floor() as i32,
-        n: (level + 64) as u32,
-        view: 0,
-        surface,
-    })
 }
 
 /// Per light, the cosine between the reflected view direction and the light direction at a
@@ -1091,6 +1026,27 @@ impl SchemeJob for MultirateJob {
             }
         }
         self.terms.resize(self.lights, LightTerm::default());
+        self.sources.clear();
+        match self.config.cache.map(|c| c.space) {
+            Some(space @ (CacheSpace::Patch | CacheSpace::Texture)) => {
+                self.shade_object_space(ctx, quads, space, acc.log)
+            }
+            _ => self.shade_screen_space(ctx, quads, acc.log),
+        }
+        for (index, quad) in quads.iter().enumerate() {
+            colors.push(self.shade_quad(ctx, index, quad, acc));
+        }
+        self.issue(acc);
+        if let Some((_, cache)) = self.cache.as_mut() {
+            acc.cache.add(&std::mem::take(&mut cache.counters));
+        }
+    }
+}
+
+impl MultirateJob {
+    /// Screen-space blocks (He et al., tile-pair cache): aligned squares of the coarse mode's
+    /// size; DYNAMIC4x4 re-shades refined 4x4 blocks at 2x2 (their first pass still counts).
+    fn shade_screen_space(&mut self, ctx: &UnitContext, quads: &[ShadeQuad], log: &mut AccessLog) {
         let first = if self.config.mode == CoarseMode::Coarse2x2 {
             4
         } else {
@@ -1100,7 +1056,7 @@ impl SchemeJob for MultirateJob {
         blocks.clear();
         Self::group(quads, first, None, &mut blocks);
         for b in &mut blocks {
-            self.shade_block(ctx, b, acc.log);
+            self.shade_block(ctx, b, log);
         }
         if self.config.mode == CoarseMode::Dynamic4x4 {
             // Refined 4x4 blocks are re-shaded at 2x2; their first coarse pass still counts.
@@ -1113,19 +1069,12 @@ impl SchemeJob for MultirateJob {
                 let mut finer = Vec::new();
                 Self::group(quads, 4, Some(&b), &mut finer);
                 for mut sub in finer {
-                    self.shade_block(ctx, &mut sub, acc.log);
+                    self.shade_block(ctx, &mut sub, log);
                     kept.push(sub);
                 }
             }
             blocks = kept;
         }
         self.blocks = blocks;
-        for quad in quads {
-            colors.push(self.shade_quad(ctx, quad, acc));
-        }
-        self.issue(acc);
-        if let Some((_, cache)) = self.cache.as_mut() {
-            acc.cache.add(&std::mem::take(&mut cache.counters));
-        }
     }
 }

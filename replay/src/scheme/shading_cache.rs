@@ -36,6 +36,8 @@ pub struct CacheEntry {
     pub r_dot_l: Vec<f32>,
     pub terms: Vec<LightTerm>,
     pub refine: Effects,
+    /// The view that shaded it (a bit of the flags word).
+    pub view: u8,
 }
 
 /// Bytes of one entry for `lights` lights: key (8), inputs as f16 (12), per light a term
@@ -114,6 +116,7 @@ mod tests {
                 specular: false,
                 shadow: false,
             },
+            view: 0,
         }
     }
 

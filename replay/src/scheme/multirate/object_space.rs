@@ -1,0 +1,349 @@
+//! Object-space shading caches: `amfs` (patch space, Clarberg et al. 2014) and `texel`
+//! (texture space, Hillesland & Yang 2016), adapted as in the tile-pair paper (§6): a local
+//! LRU cache per job and the frequency detection of He et al.
+//!
+//! Shading points are the corners of a power-of-two lattice on a surface's parameter domain:
+//! a patch's (AMFS) or a mesh's UV atlas (texel). A corner is keyed `(surface, level n,
+//! lattice index q)`, so every triangle of a patch and both views share it, whichever shaded
+//! it first: the right view reuses left-view shading as it is (no cross-view test), and
+//! shading work follows the surface's screen area rather than its triangle count. A pixel
+//! falls in one lattice cell and interpolates the cell's four corners bilinearly in
+//! parameter space; the predicates of He et al. run on those corners and refine effects per
+//! pixel, as in `multirate`.
+//!
+//! A corner outside the triangle being drawn is shaded from that triangle's attributes
+//! extrapolated (the patch's surface is not in the trace), so neighbouring triangles of a
+//! curved patch disagree slightly at shared corners: the "inconsistent shading across the
+//! triangles in the patch" the tile-pair paper observes of AMFS.
+
+use glam::{Mat2, Vec2, Vec3};
+
+use super::{CacheSpace, CoarseBlock, CoarseMode, MultirateJob, NONE};
+use crate::cost_table::Block;
+use crate::memory::AccessLog;
+use crate::raster::pixel_center;
+use crate::scheme::shading_cache::{CacheEntry, CacheKey};
+use crate::scheme::{ShadeQuad, UnitContext};
+use crate::shader::{Effects, LightingInputs};
+
+/// Coarsest lattice level (a cell spans 2^16 parameter units).
+const MIN_LEVEL: i32 = -16;
+/// Finest lattice level: a cell of 2^-24 parameter units is below f32 resolution near 1.
+const MAX_LEVEL: i32 = 24;
+/// Texel shading goes one level finer where the unit normal turns by more than this across
+/// a cell (Hillesland & Yang select the level by normal variation too).
+const TEXEL_NORMAL_CHANGE: f32 = 0.1;
+
+/// Lattice corners of a cell, in the order of [`CoarseBlock::weights`]' bilinear weights.
+const CORNERS: [(i32, i32); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
+
+/// How the triangle being drawn maps onto its surface's parameter domain.
+pub(super) struct SurfaceFrame {
+    /// Cache namespace: a mesh's atlas, a (mesh, patch) pair, or a lone triangle.
+    surface: u64,
+    /// Parameter at the triangle's three vertices.
+    params: [Vec2; 3],
+    /// Inverse of the affine map from barycentrics `(b1, b2)` to `param - params[0]`.
+    to_bary: Mat2,
+    /// Finest level whose lattice indices stay well inside i32 for this triangle.
+    max_level: i32,
+}
+
+impl SurfaceFrame {
+    /// The texture coordinates where the surface shares one parameterization (a mesh's
+    /// atlas, a patch of a mesh with UVs), else the triangle's own barycentric domain
+    /// (a triangle without patch id, or whose UVs are degenerate, is its own patch).
+    pub(super) fn of(ctx: &UnitContext, space: CacheSpace) -> SurfaceFrame {
+        let t = ctx.triangle;
+        let shared = match space {
+            CacheSpace::Texture => Some(t.mesh as u64),
+            CacheSpace::Patch if t.patch != u32::MAX => Some((t.mesh as u64) << 32 | t.patch as u64),
+            _ => None,
+        };
+        let uv = t.vertices.map(|v| ctx.geometry.uvs[v as usize]);
+        let uv_map = Mat2::from_cols(uv[1] - uv[0], uv[2] - uv[0]);
+        let (surface, params, to_bary) = match shared {
+            Some(s) if uv_map.determinant().abs() > f32::MIN_POSITIVE && uv_map.determinant().is_finite() => {
+                // Shared surfaces live in the texture-space namespace; lone triangles above it.
+                (s, uv, uv_map.inverse())
+            }
+            _ => (
+                1 << 63 | ctx.setup.prim as u64,
+                [Vec2::ZERO, Vec2::X, Vec2::Y],
+                Mat2::IDENTITY,
+            ),
+        };
+        let extent = params.iter().map(|p| p.abs().max_element()).fold(1.0f32, f32::max);
+        let max_level = (29 - libm::ceilf(libm::log2f(extent)) as i32).clamp(MIN_LEVEL, MAX_LEVEL);
+        SurfaceFrame {
+            surface,
+            params,
+            to_bary,
+            max_level,
+        }
+    }
+
+    fn param(&self, bary: Vec3) -> Vec2 {
+        self.params[0] * bary.x + self.params[1] * bary.y + self.params[2] * bary.z
+    }
+
+    fn bary(&self, param: Vec2) -> Vec3 {
+        let b = self.to_bary * (param - self.params[0]);
+        Vec3::new(1.0 - b.x - b.y, b.x, b.y)
+    }
+
+    /// Lattice level of a quad: one cell spans about `rate` pixels (the coarse fragment of
+    /// the coarse mode), from the parameter's change per pixel across the quad, rounded to a
+    /// power of two (AMFS's quantized resolution, Hillesland & Yang's mip level). Texel
+    /// shading goes one level finer where the normal turns fast across a cell.
+    fn level(&self, params: &[Vec2; 4], normals: Option<&[Vec3; 4]>, rate: f32) -> i32 {
+        let per_pixel = (params[1] - params[0]).length().max((params[2] - params[0]).length());
+        if !(per_pixel.is_finite() && per_pixel > 0.0) {
+            return 0.clamp(MIN_LEVEL, self.max_level);
+        }
+        let mut level = libm::roundf(-libm::log2f(rate * per_pixel)) as i32;
+        if let Some(n) = normals {
+            let n = n.map(|n| n.normalize_or(Vec3::Y));
+            let turn_per_pixel = (n[1] - n[0]).length().max((n[2] - n[0]).length());
+            let cell_pixels = libm::exp2f(-level as f32) / per_pixel;
+            if turn_per_pixel * cell_pixels > TEXEL_NORMAL_CHANGE {
+                level += 1;
+            }
+        }
+        level.clamp(MIN_LEVEL, self.max_level)
+    }
+}
+
+/// A lattice cell at one level: the block of an object-space scheme.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Cell {
+    pub level: i32,
+    pub qx: i32,
+    pub qy: i32,
+}
+
+impl Cell {
+    fn containing(param: Vec2, level: i32) -> (Cell, Vec2) {
+        let scaled = param * libm::exp2f(level as f32);
+        let q = scaled.floor();
+        let cell = Cell {
+            level,
+            qx: q.x as i32,
+            qy: q.y as i32,
+        };
+        (cell, scaled - q)
+    }
+
+    /// Bilinear weights of a point at `frac` (fraction of the cell) between the corners.
+    fn weights(frac: Vec2) -> [f32; 4] {
+        let (u, v) = (frac.x, frac.y);
+        [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
+    }
+
+    /// Weights of `param` against this cell (extrapolated when it lies outside).
+    fn weights_of(&self, param: Vec2) -> [f32; 4] {
+        let scaled = param * libm::exp2f(self.level as f32);
+        Cell::weights(scaled - Vec2::new(self.qx as f32, self.qy as f32))
+    }
+
+    fn corner_param(&self, corner: usize) -> Vec2 {
+        let (dx, dy) = CORNERS[corner];
+        let (qx, qy) = (self.qx.saturating_add(dx), self.qy.saturating_add(dy));
+        Vec2::new(qx as f32, qy as f32) * libm::exp2f(-self.level as f32)
+    }
+
+    fn key(&self, corner: usize, surface: u64) -> CacheKey {
+        let (dx, dy) = CORNERS[corner];
+        CacheKey {
+            qx: self.qx.saturating_add(dx),
+            qy: self.qy.saturating_add(dy),
+            n: (self.level - MIN_LEVEL) as u32,
+            view: 0,
+            surface,
+        }
+    }
+}
+
+/// Where a fine lane of an object-space block reads its coarse terms: the block (its cell)
+/// and the lane's bilinear weights in the cell.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct LaneSource {
+    pub block: usize,
+    pub weights: [f32; 4],
+}
+
+/// An object-space block's cell and the pixel its coarse lanes are drawn at in the heat map.
+pub(super) struct CellBlock {
+    pub cell: Cell,
+    pub pixel: u32,
+}
+
+impl MultirateJob {
+    /// Shades one unit's cells in object space and fills `blocks`, `cells` and `sources`
+    /// (one entry per quad) for the fine stage. DYNAMIC4x4 shades at 4-pixel cells first and
+    /// moves the lanes of refined cells one level finer (the coarser pass still counts).
+    pub(super) fn shade_object_space(
+        &mut self,
+        ctx: &UnitContext,
+        quads: &[ShadeQuad],
+        space: CacheSpace,
+        log: &mut AccessLog,
+    ) {
+        let frame = SurfaceFrame::of(ctx, space);
+        let rate = if self.config.mode == CoarseMode::Coarse2x2 {
+            2.0
+        } else {
+            4.0
+        };
+        self.blocks.clear();
+        self.cells.clear();
+        self.quad_params.clear();
+        let mut levels = Vec::with_capacity(quads.len());
+        for quad in quads {
+            let mut params = [Vec2::ZERO; 4];
+            let mut normals = [Vec3::ZERO; 4];
+            for (l, (p, n)) in params.iter_mut().zip(&mut normals).enumerate() {
+                let (px, py) = pixel_center(quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+                let bary = ctx.setup.original_bary(ctx.setup.edges(px, py));
+                *p = frame.param(bary);
+                *n = ctx.attributes_at(px, py).normal;
+            }
+            let texel = (space == CacheSpace::Texture).then_some(&normals);
+            levels.push([frame.level(&params, texel, rate); 4]);
+            self.quad_params.push(params);
+        }
+        self.assign_cells(ctx, quads, &levels);
+        self.shade_cells(ctx, &frame, 0, log);
+        if self.config.mode == CoarseMode::Dynamic4x4 {
+            for (sources, quad_levels) in self.sources.iter().zip(&mut levels) {
+                for (source, level) in sources.iter().zip(quad_levels) {
+                    if self.blocks[source.block].refine.any() {
+                        *level = (*level + 1).min(frame.max_level);
+                    }
+                }
+            }
+            let first_new = self.blocks.len();
+            self.assign_cells(ctx, quads, &levels);
+            self.shade_cells(ctx, &frame, first_new, log);
+        }
+    }
+
+    /// Puts every covered lane in the cell holding its parameter at its level, creating a
+    /// block for each new cell; helper lanes read their quad's first covered lane's cell.
+    fn assign_cells(&mut self, ctx: &UnitContext, quads: &[ShadeQuad], levels: &[[i32; 4]]) {
+        self.sources.clear();
+        for (q, quad) in quads.iter().enumerate() {
+            let params = self.quad_params[q];
+            let mut sources = [LaneSource::default(); 4];
+            let anchor = quad.lanes.trailing_zeros().min(3) as usize;
+            for l in (0..4).filter(|&l| quad.lanes & (1 << l) != 0 || l == anchor) {
+                let (cell, frac) = Cell::containing(params[l], levels[q][l]);
+                let block = match self.cells.iter().rposition(|c| c.cell == cell) {
+                    Some(b) => b,
+                    None => {
+                        let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+                        self.blocks.push(CoarseBlock::new(x, y, 0));
+                        self.cells.push(CellBlock {
+                            cell,
+                            pixel: ctx.pixel_id(x, y),
+                        });
+                        self.blocks.len() - 1
+                    }
+                };
+                sources[l] = LaneSource {
+                    block,
+                    weights: Cell::weights(frac),
+                };
+            }
+            for l in (0..4).filter(|&l| quad.lanes & (1 << l) == 0 && l != anchor) {
+                let block = sources[anchor].block;
+                sources[l] = LaneSource {
+                    block,
+                    weights: self.cells[block].cell.weights_of(params[l]),
+                };
+            }
+            self.sources.push(sources);
+        }
+    }
+    /// Shades blocks `first..`: per cell, four cache queries (reuse stage); each corner
+    /// missing from the cache is shaded at its parameter (coarse stage, one lane per corner,
+    /// so corners pack densely into SIMD groups) and stored; then the predicates run on the
+    /// four corners, charged to the query lanes (flags belong to a cell, not to a cached
+    /// corner, so they are evaluated at every visit).
+    fn shade_cells(&mut self, ctx: &UnitContext, frame: &SurfaceFrame, first: usize, log: &mut AccessLog) {
+        let Some((config, mut cache)) = self.cache.take() else {
+            return;
+        };
+        let n = self.lights;
+        let material = ctx.triangle.material;
+        let mut blocks = std::mem::take(&mut self.blocks);
+        for (index, b) in blocks.iter_mut().enumerate().skip(first) {
+            let (cell, pixel) = (self.cells[index].cell, self.cells[index].pixel);
+            b.terms.clear();
+            b.terms.resize(4 * n, Default::default());
+            let mut positions = [Vec3::ZERO; 4];
+            let mut normals = [Vec3::ZERO; 4];
+            let mut missing = [false; 4];
+            for i in 0..4 {
+                let lane = self.coarse_lane(pixel, true);
+                if i == 0 {
+                    b.first_lane = lane;
+                }
+                self.coarse_lanes[lane].blocks.take(Block::CacheQuery);
+                cache.counters.queries += 1;
+                match cache.get(&cell.key(i, frame.surface)) {
+                    Some(e) => {
+                        b.terms[i * n..(i + 1) * n].copy_from_slice(&e.terms);
+                        (positions[i], normals[i]) = (e.position, e.normal);
+                        if e.view == ctx.view {
+                            cache.counters.local_hits += 1;
+                        } else {
+                            cache.counters.cross_view_hits += 1;
+                        }
+                    }
+                    None => missing[i] = true,
+                }
+            }
+            if missing.iter().any(|&m| m) {
+                cache.counters.blocks_shaded += 1;
+            } else {
+                cache.counters.blocks_skipped += 1;
+            }
+            for i in (0..4).filter(|&i| missing[i]) {
+                let bary = frame.bary(cell.corner_param(i));
+                let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
+                let g = ctx.geometry;
+                positions[i] = g.positions[a] * bary.x + g.positions[c] * bary.y + g.positions[d] * bary.z;
+                normals[i] =
+                    (g.normals[a] * bary.x + g.normals[c] * bary.y + g.normals[d] * bary.z).normalize_or(Vec3::Y);
+                let lane = self.coarse_lane(pixel, false);
+                ctx.env.light_terms(
+                    &LightingInputs {
+                        position: positions[i],
+                        normal: normals[i],
+                        eye: ctx.eye,
+                        material,
+                    },
+                    Effects::ALL,
+                    &mut b.terms[i * n..(i + 1) * n],
+                    &mut self.coarse_lanes[lane].blocks,
+                    log,
+                );
+                cache.put(
+                    cell.key(i, frame.surface),
+                    CacheEntry {
+                        position: positions[i],
+                        normal: normals[i],
+                        r_dot_l: Vec::new(),
+                        terms: b.terms[i * n..(i + 1) * n].to_vec(),
+                        refine: NONE,
+                        view: ctx.view,
+                    },
+                );
+            }
+            b.refine = self.predicates(ctx, b, &positions, &normals);
+        }
+        self.blocks = blocks;
+        self.cache = Some((config, cache));
+    }
+}
