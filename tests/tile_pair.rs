@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{results, shadetrace_ok};
+use common::{results, shadetrace, shadetrace_ok};
 
 #[test]
 fn pair_schedulers_never_change_pixels() {
@@ -225,4 +225,52 @@ fn tile_pair_costs_less_than_he_2x2_at_high_quality() {
         assert!(tp < he, "{scene}: tile-pair {tp} >= he-2x2 {he}");
         assert!(ssim > 0.999, "{scene}: SSIM {ssim}");
     }
+}
+
+/// The reuse shader's thresholds (Algorithm 2 leaves them open) trade cost for quality; the
+/// defaults stay out of the options map, so existing goldens keep their options hash.
+#[test]
+fn reuse_thresholds_trade_cost_for_quality() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |label: &str, extra: &[&str]| {
+        let out = dir.path().join(label);
+        let mut args = vec![
+            "replay",
+            "traces/spheres.strace",
+            "--preset",
+            "tile-pair",
+            "--res",
+            "320x360",
+            "--frames",
+            "0",
+            "--no-images",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        shadetrace_ok(&args, None);
+        results(&out)
+    };
+    let loose = run("default", &[]);
+    let tight = run("tight", &["--reuse-normal", "0.01"]);
+    let cost = |v: &serde_json::Value| v["total"]["relative_cost"].as_f64().unwrap();
+    let right_ssim = |v: &serde_json::Value| v["frames"][0]["views"][1]["quality"]["ssim"].as_f64().unwrap();
+    assert!(cost(&tight) > cost(&loose));
+    assert!(right_ssim(&tight) > right_ssim(&loose));
+    assert!(loose["options"].get("multirate.reuse_normal").is_none());
+    assert_eq!(tight["options"]["multirate.reuse_normal"].as_str(), Some("0.01"));
+    let bad = shadetrace(
+        &[
+            "replay",
+            "traces/spheres.strace",
+            "--preset",
+            "tile-pair",
+            "--reuse-normal",
+            "NaN",
+        ],
+        None,
+    );
+    assert!(!bad.status.success());
+    assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
 }

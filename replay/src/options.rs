@@ -5,7 +5,8 @@ use std::collections::BTreeMap;
 
 use sha2::{Digest, Sha256};
 
-use crate::scheme::multirate::{CoarseMode, Sampling, SimdSchedule, Thresholds};
+use crate::scheme::multirate::{CoarseMode, ReuseTest, Sampling, SimdSchedule, Thresholds};
+use crate::scheme::shading_cache::DEFAULT_CACHE_BYTES;
 
 /// Options shared by every back-end.
 #[derive(Clone, Debug, PartialEq)]
@@ -46,8 +47,10 @@ pub struct MultirateOptions {
     /// Multiplies the refinement thresholds: 0 refines everything, inf nothing.
     pub threshold_scale: f32,
     pub schedule: SimdSchedule,
-    /// Shading-cache size of `tile-pair-cache`, KiB per job (an epipolar tile row).
+    /// Shading-cache size of the cache schemes, KiB per job (an epipolar tile row).
     pub cache_kb: u32,
+    /// The tile-pair reuse shader's thresholds.
+    pub reuse: ReuseTest,
 }
 
 impl Default for MultirateOptions {
@@ -59,7 +62,8 @@ impl Default for MultirateOptions {
             thresholds: Thresholds::default(),
             threshold_scale: 1.0,
             schedule: SimdSchedule::TwoPhase,
-            cache_kb: 24,
+            cache_kb: DEFAULT_CACHE_BYTES / 1024,
+            reuse: ReuseTest::default(),
         }
     }
 }
@@ -116,6 +120,9 @@ impl ReplayOptions {
             ("--t-specular", t.specular),
             ("--t-shadow", t.shadow),
             ("--threshold-scale", self.multirate.threshold_scale),
+            ("--reuse-position", self.multirate.reuse.position),
+            ("--reuse-normal", self.multirate.reuse.normal),
+            ("--reuse-r-dot-l", self.multirate.reuse.r_dot_l),
         ] {
             if v.is_nan() || v < 0.0 {
                 return Err(format!("{name} {v} must be a non-negative number (inf allowed)"));
@@ -135,7 +142,9 @@ impl ReplayOptions {
         Ok(())
     }
 
-    /// Every option by name, as recorded in results.
+    /// Every option by name, as recorded in results. Options added after goldens were first
+    /// keyed (the reuse thresholds) appear only when set away from their defaults, so the
+    /// options hash of every existing golden, ours and users', stays the same.
     pub fn to_map(&self) -> BTreeMap<String, String> {
         let mut m = BTreeMap::new();
         let frames = self.frames.map_or("all".to_string(), |(a, b)| format!("{a}..{b}"));
@@ -174,6 +183,16 @@ impl ReplayOptions {
         m.insert("multirate.t_shadow".into(), t.shadow.to_string());
         m.insert("multirate.lambda".into(), t.lambda.to_string());
         m.insert("multirate.edge_delta".into(), t.edge_delta.to_string());
+        let (reuse, default) = (mr.reuse, ReuseTest::default());
+        for (name, v, d) in [
+            ("position", reuse.position, default.position),
+            ("normal", reuse.normal, default.normal),
+            ("r_dot_l", reuse.r_dot_l, default.r_dot_l),
+        ] {
+            if v != d {
+                m.insert(format!("multirate.reuse_{name}"), v.to_string());
+            }
+        }
         m
     }
 

@@ -171,7 +171,7 @@ impl Preset {
                     .map(|space| CacheConfig {
                         space,
                         bytes: m.cache_kb * 1024,
-                        ..CacheConfig::default()
+                        reuse: m.reuse,
                     }),
                 }))
             }

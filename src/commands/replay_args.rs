@@ -1,7 +1,7 @@
 //! Replay options shared by `replay`, `compare`, `check` and `demo`.
 
 use shadetrace_replay::options::MultirateOptions;
-use shadetrace_replay::scheme::multirate::{CoarseMode, Sampling, SimdSchedule, Thresholds};
+use shadetrace_replay::scheme::multirate::{CoarseMode, ReuseTest, Sampling, SimdSchedule, Thresholds};
 use shadetrace_replay::ReplayOptions;
 
 #[derive(clap::Args, Clone, Debug)]
@@ -46,10 +46,12 @@ pub struct ReplayArgs {
     /// Multi-rate coarse mode, overriding the preset's: 2x2, 4x4 or dynamic.
     #[arg(long, value_parser = CoarseMode::parse)]
     pub coarse_mode: Option<CoarseMode>,
-    /// Multi-rate sample placement: static-center, static-corner or coverage-bbox.
+    /// Multi-rate sample placement in screen blocks (multirate, tile-pair-cache):
+    /// static-center, static-corner or coverage-bbox. amfs and texel shade lattice corners.
     #[arg(long, default_value = "coverage-bbox", value_parser = Sampling::parse)]
     pub sampling: Sampling,
-    /// Disable the small-triangle optimization of multi-rate shading.
+    /// Disable the small-triangle optimization of screen-block multi-rate shading (multirate,
+    /// tile-pair-cache; amfs and texel have no such path).
     #[arg(long)]
     pub no_small_triangle: bool,
     /// Multi-rate SIMD schedule: single-thread, two-phase or two-phase-sorted.
@@ -73,9 +75,19 @@ pub struct ReplayArgs {
     /// Multiplies the diffuse, specular and shadow thresholds (0 = refine all, inf = none).
     #[arg(long, default_value_t = 1.0)]
     pub threshold_scale: f32,
-    /// Shading-cache size of tile-pair-cache in KiB per epipolar tile row (0 = no reuse).
-    #[arg(long, default_value_t = 24)]
+    /// Shading-cache size of tile-pair-cache, amfs and texel in KiB per job (an epipolar tile
+    /// row under tile-pair; 0 = no reuse).
+    #[arg(long, default_value_t = MultirateOptions::default().cache_kb)]
     pub cache_kb: u32,
+    /// Tile-pair reuse test: largest position difference, as a fraction of the eye distance.
+    #[arg(long, default_value_t = ReuseTest::default().position)]
+    pub reuse_position: f32,
+    /// Tile-pair reuse test: largest difference of unit normals.
+    #[arg(long, default_value_t = ReuseTest::default().normal)]
+    pub reuse_normal: f32,
+    /// Tile-pair reuse test: largest difference of R·L between the views (cross-view hits).
+    #[arg(long, default_value_t = ReuseTest::default().r_dot_l)]
+    pub reuse_r_dot_l: f32,
 }
 
 impl ReplayArgs {
@@ -107,6 +119,11 @@ impl ReplayArgs {
                 threshold_scale: self.threshold_scale,
                 schedule: self.simd_schedule,
                 cache_kb: self.cache_kb,
+                reuse: ReuseTest {
+                    position: self.reuse_position,
+                    normal: self.reuse_normal,
+                    r_dot_l: self.reuse_r_dot_l,
+                },
             },
         }
     }

@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use shadetrace_formats::LightKind;
 
-use super::shading_cache::{CacheEntry, CacheKey, ShadingCache, DEFAULT_CACHE_BYTES};
+use super::shading_cache::{CacheEntry, CacheKey, ShadingCache};
 use super::{
     Accounting, LaneAttributes, SchemeJob, ShadeQuad, ShadingScheme, UnitContext, REFINED_DIFFUSE, REFINED_SHADOW,
     REFINED_SPECULAR,
@@ -186,11 +186,18 @@ pub enum CacheSpace {
     Texture,
 }
 
-/// Shading-cache size and the reuse shader's thresholds (Algorithm 2).
+/// Shading-cache space and size, and the reuse shader's thresholds (screen space only).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CacheConfig {
     pub space: CacheSpace,
     pub bytes: u32,
+    pub reuse: ReuseTest,
+}
+
+/// Thresholds of the tile-pair reuse shader (Algorithm 2's THRESHOLD0..2, which the paper
+/// leaves open): looser reuses more and costs quality, mostly in the right view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReuseTest {
     /// Largest position difference, as a fraction of the distance to the eye.
     pub position: f32,
     /// Largest difference of unit normals.
@@ -199,11 +206,9 @@ pub struct CacheConfig {
     pub r_dot_l: f32,
 }
 
-impl Default for CacheConfig {
+impl Default for ReuseTest {
     fn default() -> Self {
-        CacheConfig {
-            space: CacheSpace::Screen,
-            bytes: DEFAULT_CACHE_BYTES,
+        ReuseTest {
             position: 0.01,
             normal: 0.1,
             r_dot_l: 0.05,
@@ -577,6 +582,7 @@ impl MultirateJob {
         let Some((config, mut cache)) = self.cache.take() else {
             return false;
         };
+        let test = config.reuse;
         let n = self.lights;
         let other = 1 - ctx.view;
         let project = |p: Vec3, view: u8| {
@@ -607,8 +613,8 @@ impl MultirateJob {
             let normal = normals[i].normalize_or(Vec3::Y);
             let distance = (positions[i] - ctx.eye).length();
             let fits = |e: &CacheEntry| {
-                (positions[i] - e.position).length() <= config.position * distance
-                    && (normal - e.normal).length() <= config.normal
+                (positions[i] - e.position).length() <= test.position * distance
+                    && (normal - e.normal).length() <= test.normal
             };
             if let Some(e) = cache.get(&keys[i]) {
                 self.coarse_lanes[lane].blocks.take(Block::ReuseTest);
@@ -634,7 +640,7 @@ impl MultirateJob {
                 self.coarse_lanes[lane].blocks.take(Block::ReuseCrossView);
                 let r = r_dot_l(ctx, positions[i], normal);
                 let reusable =
-                    |e: &CacheEntry| fits(e) && r.iter().zip(&e.r_dot_l).all(|(a, c)| (a - c).abs() <= config.r_dot_l);
+                    |e: &CacheEntry| fits(e) && r.iter().zip(&e.r_dot_l).all(|(a, c)| (a - c).abs() <= test.r_dot_l);
                 if reusable(e) {
                     let nearest = (e.terms.clone(), e.refine);
                     // The projected fragment rarely sits on a cached one: interpolate the four
