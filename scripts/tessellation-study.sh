@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # The tile-pair paper's Fig. 9: the spheres scene captured at several subdivision levels,
-# relative shading cost and SSIM of per-pixel, he-2x2, amfs, texel and tile-pair at each.
+# relative shading cost and SSIM (min and per view) of per-pixel, he-2x2, amfs, texel and
+# tile-pair at each, plus `tile-pair-paper`: tile-pair as the paper configures its method
+# (DYNAMIC4x4, static corner samples, and no small-triangle path, which the paper does not
+# use: its cache, not that path, meets tiny triangles).
 # Usage: scripts/tessellation-study.sh [OUT] [replay flags, e.g. --res 640x720]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -9,13 +12,27 @@ shift $(( $# >= 1 ? 1 : 0 ))
 cargo build --release --quiet
 bin=target/release/shadetrace
 mkdir -p "$out"
-echo "subdiv,quads_per_patch_edge,preset,relative_cost_pct,min_ssim" > "$out/study.csv"
+echo "subdiv,quads_per_patch_edge,preset,relative_cost_pct,min_ssim,left_ssim,right_ssim" > "$out/study.csv"
+# One row per preset of a compare run: cost and SSIM from summary.csv, per-view SSIM from
+# each preset's results.json.
+rows() {
+  local dir=$1 label=$2 level=$3
+  tail -n +2 "$dir/summary.csv" | while IFS=, read -r preset rest; do
+    [ -n "$label" ] && [ "$preset" = forward ] && continue
+    cost=$(echo "$preset,$rest" | cut -d, -f9)
+    ssim=$(echo "$preset,$rest" | cut -d, -f11)
+    views=$(python3 -c "import json,sys; v=json.load(open(sys.argv[1])); print(','.join(str(x['quality']['ssim']) for x in v['frames'][0]['views']))" "$dir/$preset/results.json")
+    echo "$level,$((1 << level)),${label:-$preset},$cost,$ssim,$views"
+  done >> "$out/study.csv"
+}
 for level in 1 2 3 4 5; do
   trace="$out/spheres-$level.strace"
   "$bin" capture "builtin:spheres?subdiv=$level" -o "$trace" --quiet
   "$bin" compare "$trace" --presets forward,he-2x2,amfs,texel,tile-pair --frames 0 --out "$out/level$level" --quiet "$@"
-  tail -n +2 "$out/level$level/summary.csv" | awk -F, -v l="$level" -v q=$((1 << level)) \
-    '{ print l "," q "," $1 "," $9 "," $11 }' >> "$out/study.csv"
+  rows "$out/level$level" "" "$level"
+  "$bin" compare "$trace" --presets tile-pair --frames 0 --out "$out/level$level-paper" --quiet \
+    --coarse-mode dynamic --sampling static-corner --no-small-triangle "$@"
+  rows "$out/level$level-paper" tile-pair-paper "$level"
 done
 column -s, -t < "$out/study.csv"
 echo "wrote $out/study.csv"

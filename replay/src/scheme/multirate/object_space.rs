@@ -64,9 +64,9 @@ impl SurfaceFrame {
         let uv_map = Mat2::from_cols(uv[1] - uv[0], uv[2] - uv[0]);
         let (surface, params, to_bary) = match shared {
             Some(s) if uv_map.determinant().abs() > f32::MIN_POSITIVE && uv_map.determinant().is_finite() => {
-                // Shared surfaces live in the texture-space namespace; lone triangles above it.
                 (s, uv, uv_map.inverse())
             }
+            // Bit 63 keeps lone triangles apart from every mesh and (mesh, patch) id.
             _ => (
                 1 << 63 | ctx.setup.prim as u64,
                 [Vec2::ZERO, Vec2::X, Vec2::Y],
@@ -99,7 +99,7 @@ impl SurfaceFrame {
     fn level(&self, params: &[Vec2; 4], normals: Option<&[Vec3; 4]>, rate: f32) -> i32 {
         let per_pixel = (params[1] - params[0]).length().max((params[2] - params[0]).length());
         if !(per_pixel.is_finite() && per_pixel > 0.0) {
-            return 0.clamp(MIN_LEVEL, self.max_level);
+            return 0.min(self.max_level);
         }
         let mut level = libm::roundf(-libm::log2f(rate * per_pixel)) as i32;
         if let Some(n) = normals {
@@ -200,16 +200,13 @@ impl MultirateJob {
         self.quad_params.clear();
         let mut levels = Vec::with_capacity(quads.len());
         for quad in quads {
-            let mut params = [Vec2::ZERO; 4];
-            let mut normals = [Vec3::ZERO; 4];
-            for (l, (p, n)) in params.iter_mut().zip(&mut normals).enumerate() {
-                let (px, py) = pixel_center(quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
-                let bary = ctx.setup.original_bary(ctx.setup.edges(px, py));
-                *p = frame.param(bary);
-                *n = ctx.attributes_at(px, py).normal;
-            }
-            let texel = (space == CacheSpace::Texture).then_some(&normals);
-            levels.push([frame.level(&params, texel, rate); 4]);
+            let centers: [(i64, i64); 4] =
+                std::array::from_fn(|l| pixel_center(quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1)));
+            let params = centers.map(|(px, py)| frame.param(ctx.setup.original_bary(ctx.setup.edges(px, py))));
+            // Texel shading also picks its level by the normal's variation.
+            let normals =
+                (space == CacheSpace::Texture).then(|| centers.map(|(px, py)| ctx.attributes_at(px, py).normal));
+            levels.push([frame.level(&params, normals.as_ref(), rate); 4]);
             self.quad_params.push(params);
         }
         self.assign_cells(ctx, quads, &levels);
