@@ -9,7 +9,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{results, shadetrace, shadetrace_ok};
+use common::{replay_into, shadetrace, shadetrace_ok};
 use serde_json::Value;
 
 /// Replays `trace` with `preset` and extra flags into `dir/label`; returns results and dir.
@@ -22,18 +22,7 @@ fn replay(
     label: &str,
 ) -> (Value, PathBuf) {
     let out = dir.join(label);
-    let mut args = vec![
-        "replay",
-        trace,
-        "--preset",
-        preset,
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    shadetrace_ok(&args, threads);
-    (results(&out), out)
+    (replay_into(trace, preset, extra, threads, &out), out)
 }
 
 fn capture(scene: &str, dir: &Path, name: &str, extra: &[&str]) -> String {

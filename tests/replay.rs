@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{results, shadetrace_ok as shadetrace, trace};
+use common::{replay_into, shadetrace_ok as shadetrace, trace};
 use serde_json::Value;
 
 /// Replays and returns results.json (timing removed) and the output directory.
@@ -16,19 +16,7 @@ fn replay(name: &str, preset: &str, extra: &[&str], threads: Option<&str>, dir: 
         extra.join("_"),
         threads.unwrap_or("default")
     ));
-    let t = trace(name);
-    let mut args = vec![
-        "replay",
-        &t,
-        "--preset",
-        preset,
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    shadetrace(&args, threads);
-    (results(&out), out)
+    (replay_into(&trace(name), preset, extra, threads, &out), out)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{results, shadetrace, shadetrace_ok};
+use common::{replay_into, shadetrace, shadetrace_ok};
 
 #[test]
 fn pair_schedulers_never_change_pixels() {
@@ -11,38 +11,10 @@ fn pair_schedulers_never_change_pixels() {
     for scene in ["floor", "spheres", "hairball", "depth-stack", "light-room"] {
         let t = format!("traces/{scene}.strace");
         let forward = dir.path().join(format!("{scene}-forward"));
-        shadetrace_ok(
-            &[
-                "replay",
-                &t,
-                "--res",
-                "128x144",
-                "--frames",
-                "1",
-                "--out",
-                forward.to_str().unwrap(),
-                "--quiet",
-            ],
-            None,
-        );
+        replay_into(&t, "forward", &["--res", "128x144", "--frames", "1"], None, &forward);
         for preset in ["multiview", "tile-pair-pp"] {
             let out = dir.path().join(format!("{scene}-{preset}"));
-            shadetrace_ok(
-                &[
-                    "replay",
-                    &t,
-                    "--preset",
-                    preset,
-                    "--res",
-                    "128x144",
-                    "--frames",
-                    "1",
-                    "--out",
-                    out.to_str().unwrap(),
-                    "--quiet",
-                ],
-                None,
-            );
+            replay_into(&t, preset, &["--res", "128x144", "--frames", "1"], None, &out);
             for png in ["frame0001-left.png", "frame0001-right.png"] {
                 let a = std::fs::read(forward.join(png)).unwrap();
                 let b = std::fs::read(out.join(png)).unwrap();
@@ -70,21 +42,14 @@ fn zero_ipd_pairs_are_the_diagonal() {
         ],
         None,
     );
-    let out = dir.path().join("out");
-    shadetrace_ok(
-        &[
-            "replay",
-            t.to_str().unwrap(),
-            "--preset",
-            "tile-pair-pp",
-            "--out",
-            out.to_str().unwrap(),
-            "--no-images",
-            "--quiet",
-        ],
+    let v = replay_into(
+        t.to_str().unwrap(),
+        "tile-pair-pp",
+        &["--no-images"],
         None,
+        &dir.path().join("out"),
     );
-    let lists = &results(&out)["frames"][0]["lists"];
+    let lists = &v["frames"][0]["lists"];
     let n = |k: &str| lists[k].as_u64().unwrap();
     assert_eq!(n("tile_pairs") * 2, n("tiles"), "{lists}");
     assert_eq!(n("tile_pair_entries") * 2, n("tile_entries"), "{lists}");
@@ -96,21 +61,14 @@ fn tile_pair_is_deterministic_across_threads() {
     let dir = tempfile::tempdir().unwrap();
     let run = |threads: &str| {
         let out = dir.path().join(threads);
-        shadetrace_ok(
-            &[
-                "replay",
-                "traces/spheres.strace",
-                "--preset",
-                "tile-pair-he-2x2",
-                "--res",
-                "160x180",
-                "--out",
-                out.to_str().unwrap(),
-                "--quiet",
-            ],
+        let v = replay_into(
+            "traces/spheres.strace",
+            "tile-pair-he-2x2",
+            &["--res", "160x180"],
             Some(threads),
+            &out,
         );
-        (results(&out), std::fs::read(out.join("frame0000-right.png")).unwrap())
+        (v, std::fs::read(out.join("frame0000-right.png")).unwrap())
     };
     assert!(run("1") == run("2"));
 }
@@ -151,20 +109,7 @@ fn cross_view_reuse_at_zero_and_huge_ipd() {
             None,
         );
         let out = dir.path().join(format!("out{ipd}"));
-        shadetrace_ok(
-            &[
-                "replay",
-                t.to_str().unwrap(),
-                "--preset",
-                "tile-pair",
-                "--out",
-                out.to_str().unwrap(),
-                "--no-images",
-                "--quiet",
-            ],
-            None,
-        );
-        results(&out)
+        replay_into(t.to_str().unwrap(), "tile-pair", &["--no-images"], None, &out)
     };
     // Identical views: the right view reuses nearly all coarse work from the left.
     let same = run("0");
@@ -197,24 +142,13 @@ fn tile_pair_costs_less_than_he_2x2_at_high_quality() {
         let t = format!("traces/{scene}.strace");
         let cost = |preset: &str| {
             let out = dir.path().join(format!("{scene}-{preset}"));
-            shadetrace_ok(
-                &[
-                    "replay",
-                    &t,
-                    "--preset",
-                    preset,
-                    "--res",
-                    "320x360",
-                    "--frames",
-                    "0",
-                    "--out",
-                    out.to_str().unwrap(),
-                    "--no-images",
-                    "--quiet",
-                ],
+            let v = replay_into(
+                &t,
+                preset,
+                &["--res", "320x360", "--frames", "0", "--no-images"],
                 None,
+                &out,
             );
-            let v = results(&out);
             (
                 v["total"]["relative_cost"].as_f64().unwrap(),
                 v["total"]["min_ssim"].as_f64().unwrap(),
@@ -233,24 +167,15 @@ fn tile_pair_costs_less_than_he_2x2_at_high_quality() {
 fn reuse_thresholds_trade_cost_for_quality() {
     let dir = tempfile::tempdir().unwrap();
     let run = |label: &str, extra: &[&str]| {
-        let out = dir.path().join(label);
-        let mut args = vec![
-            "replay",
-            "traces/spheres.strace",
-            "--preset",
-            "tile-pair",
-            "--res",
-            "320x360",
-            "--frames",
-            "0",
-            "--no-images",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ];
+        let mut args = vec!["--res", "320x360", "--frames", "0", "--no-images"];
         args.extend_from_slice(extra);
-        shadetrace_ok(&args, None);
-        results(&out)
+        replay_into(
+            "traces/spheres.strace",
+            "tile-pair",
+            &args,
+            None,
+            &dir.path().join(label),
+        )
     };
     let loose = run("default", &[]);
     let tight = run("tight", &["--reuse-normal", "0.01"]);

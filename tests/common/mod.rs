@@ -44,3 +44,13 @@ pub fn results(dir: &Path) -> Value {
     v.as_object_mut().unwrap().remove("timing");
     v
 }
+
+/// Replays `trace` with `preset` and extra flags into `out`, asserting success; returns
+/// its `results.json` (timing removed).
+pub fn replay_into(trace: &str, preset: &str, extra: &[&str], threads: Option<&str>, out: &Path) -> Value {
+    let out_arg = out.display().to_string();
+    let mut args = vec!["replay", trace, "--preset", preset, "--out", &out_arg, "--quiet"];
+    args.extend_from_slice(extra);
+    shadetrace_ok(&args, threads);
+    results(out)
+}

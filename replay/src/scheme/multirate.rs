@@ -412,6 +412,33 @@ impl MultirateJob {
         self.coarse_used - 1
     }
 
+    /// Runs the coarse shader (every effect) at one point on a new coarse lane of `pixel`,
+    /// writing its light terms; returns the lane.
+    fn shade_coarse_fragment(
+        &mut self,
+        ctx: &UnitContext,
+        pixel: u32,
+        position: Vec3,
+        normal: Vec3,
+        terms: &mut [LightTerm],
+        log: &mut AccessLog,
+    ) -> usize {
+        let lane = self.coarse_lane(pixel, false);
+        ctx.env.light_terms(
+            &LightingInputs {
+                position,
+                normal,
+                eye: ctx.eye,
+                material: ctx.triangle.material,
+            },
+            Effects::ALL,
+            terms,
+            &mut self.coarse_lanes[lane].blocks,
+            log,
+        );
+        lane
+    }
+
     fn fine_lane(&mut self) -> usize {
         if self.fine_used == self.fine_lanes.len() {
             self.fine_lanes.push(FineLane {
@@ -496,7 +523,6 @@ impl MultirateJob {
         ];
         b.terms.clear();
         b.terms.resize(4 * self.lights, LightTerm::default());
-        let material = ctx.triangle.material;
         let mut positions = [Vec3::ZERO; 4];
         let mut normals = [Vec3::ZERO; 4];
         let half = b.size / 2;
@@ -524,23 +550,19 @@ impl MultirateJob {
                 return;
             }
         }
+        let n = self.lights;
         for i in 0..4 {
-            let lane = self.coarse_lane(pixels[i], false);
+            let lane = self.shade_coarse_fragment(
+                ctx,
+                pixels[i],
+                positions[i],
+                normals[i],
+                &mut b.terms[i * n..(i + 1) * n],
+                log,
+            );
             if i == 0 {
                 b.first_lane = lane;
             }
-            ctx.env.light_terms(
-                &LightingInputs {
-                    position: positions[i],
-                    normal: normals[i],
-                    eye: ctx.eye,
-                    material,
-                },
-                Effects::ALL,
-                &mut b.terms[i * self.lights..(i + 1) * self.lights],
-                &mut self.coarse_lanes[lane].blocks,
-                log,
-            );
         }
         b.refine = if exact {
             NONE

@@ -24,7 +24,6 @@ use crate::memory::AccessLog;
 use crate::raster::pixel_center;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
 use crate::scheme::{ShadeQuad, UnitContext};
-use crate::shader::{Effects, LightingInputs};
 
 /// Coarsest lattice level (a cell spans 2^16 parameter units).
 const MIN_LEVEL: i32 = -16;
@@ -272,7 +271,6 @@ impl MultirateJob {
             return;
         };
         let n = self.lights;
-        let material = ctx.triangle.material;
         let mut blocks = std::mem::take(&mut self.blocks);
         for (index, b) in blocks.iter_mut().enumerate().skip(first) {
             let (cell, pixel) = (self.cells[index].cell, self.cells[index].pixel);
@@ -313,17 +311,12 @@ impl MultirateJob {
                 positions[i] = g.positions[a] * bary.x + g.positions[c] * bary.y + g.positions[d] * bary.z;
                 normals[i] =
                     (g.normals[a] * bary.x + g.normals[c] * bary.y + g.normals[d] * bary.z).normalize_or(Vec3::Y);
-                let lane = self.coarse_lane(pixel, false);
-                ctx.env.light_terms(
-                    &LightingInputs {
-                        position: positions[i],
-                        normal: normals[i],
-                        eye: ctx.eye,
-                        material,
-                    },
-                    Effects::ALL,
+                self.shade_coarse_fragment(
+                    ctx,
+                    pixel,
+                    positions[i],
+                    normals[i],
                     &mut b.terms[i * n..(i + 1) * n],
-                    &mut self.coarse_lanes[lane].blocks,
                     log,
                 );
                 cache.put(
