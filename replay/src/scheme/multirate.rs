@@ -264,6 +264,7 @@ impl ShadingScheme for Multirate {
             reuse_packer: SimdPacker::new(simd_width, lights),
             cells: Vec::new(),
             quad_params: Vec::new(),
+            quad_levels: Vec::new(),
             sources: Vec::new(),
         })
     }
@@ -364,10 +365,12 @@ struct MultirateJob {
     /// Tile-pair sequence of the last unit (the cache is cleared when it changes).
     sequence: u32,
     reuse_packer: SimdPacker,
-    /// Object-space schemes: each block's cell, each quad's lane parameters, and where each
-    /// quad's lanes read their terms (the blocks are cells, not screen squares).
+    /// Object-space schemes: each block's cell, each quad's lane parameters and lattice
+    /// levels, and where each quad's lanes read their terms (the blocks are cells, not
+    /// screen squares).
     cells: Vec<CellBlock>,
     quad_params: Vec<[Vec2; 4]>,
+    quad_levels: Vec<[i32; 4]>,
     sources: Vec<[LaneSource; 4]>,
 }
 

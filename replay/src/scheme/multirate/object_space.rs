@@ -197,7 +197,9 @@ impl MultirateJob {
         self.blocks.clear();
         self.cells.clear();
         self.quad_params.clear();
-        let mut levels = Vec::with_capacity(quads.len());
+        // Taken from the job so that its allocation is reused from unit to unit.
+        let mut levels = std::mem::take(&mut self.quad_levels);
+        levels.clear();
         for quad in quads {
             let centers: [(i64, i64); 4] =
                 std::array::from_fn(|l| pixel_center(quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1)));
@@ -222,6 +224,7 @@ impl MultirateJob {
             self.assign_cells(ctx, quads, &levels);
             self.shade_cells(ctx, &frame, first_new, log);
         }
+        self.quad_levels = levels;
     }
 
     /// Puts every covered lane in the cell holding its parameter at its level, creating a
