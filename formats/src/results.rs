@@ -203,6 +203,13 @@ pub struct ShadingCost {
 }
 
 impl ShadingCost {
+    pub fn new(simd_width: u32) -> ShadingCost {
+        ShadingCost {
+            simd_width,
+            ..Default::default()
+        }
+    }
+
     pub fn issued(&self) -> u64 {
         self.fine.issued() + self.coarse.issued() + self.reuse.issued()
     }

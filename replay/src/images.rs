@@ -5,6 +5,8 @@
 //! settings), so the same replay writes byte-identical files (DESIGN.md §6), and nothing
 //! panics on odd sizes: empty, 1x1 and very wide images all work.
 
+pub use crate::srgb::linear_to_srgb8;
+use crate::srgb::unit;
 use std::io::Write;
 use std::path::Path;
 
@@ -138,30 +140,6 @@ impl Rgba8Image {
         tmp.persist(path)
             .map_err(|e| format!("{}: {}", path.display(), e.error))?;
         Ok(())
-    }
-}
-
-/// The sRGB transfer function (OETF) from a linear value to an 8-bit code, rounded to
-/// nearest. Values are clamped to [0, 1] first; NaN maps to 0 so a bad shader result
-/// shows as black instead of poisoning the image. `libm` keeps the result identical on
-/// every platform (DESIGN.md §6).
-pub fn linear_to_srgb8(c: f32) -> u8 {
-    let c = unit(c);
-    let encoded = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * libm::pow(c, 1.0 / 2.4) - 0.055
-    };
-    // In [0, 255] by construction; `as` saturates anyway.
-    (encoded * 255.0).round() as u8
-}
-
-/// `c` clamped to [0, 1], with NaN as 0 (`f32::clamp` would keep NaN).
-fn unit(c: f32) -> f64 {
-    if c.is_nan() {
-        0.0
-    } else {
-        f64::from(c.clamp(0.0, 1.0))
     }
 }
 

@@ -5,6 +5,7 @@
 //! textures, shadows, shader) is shared so that numbers are comparable.
 
 pub mod bins;
+pub mod command;
 pub mod cost;
 pub mod cost_table;
 pub mod geometry;
@@ -20,6 +21,7 @@ pub mod schedule;
 pub mod scheme;
 pub mod shader;
 pub mod shadow;
+pub mod srgb;
 pub mod texture;
 pub mod vertex_stage;
 

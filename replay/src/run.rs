@@ -112,9 +112,9 @@ pub fn replay(
         });
         let mut views = Vec::new();
         for (v, view) in out.views.iter().enumerate() {
-            width = view.image.width;
-            height = view.image.height;
-            pixels += (view.image.width * view.image.height) as u64;
+            width = view.width;
+            height = view.height;
+            pixels += (view.width * view.height) as u64;
             let (relative_cost, quality) = match reference_frame {
                 Some((rf, ri)) => {
                     let issued = rf.views[v].cost.issued();
@@ -123,7 +123,7 @@ pub fn replay(
                     } else {
                         Some(view.cost.issued() as f64 / issued as f64)
                     };
-                    (rel, Some(quality::compare(&ri.views[v].color, &view.image)?))
+                    (rel, Some(quality::compare(&ri.views[v].color, &view.image())?))
                 }
                 None => (None, None),
             };
@@ -166,12 +166,12 @@ pub fn replay(
             frame: index,
             views: [
                 ViewImages {
-                    color: l.image,
+                    color: l.image(),
                     cost_heat: l.cost_heat,
                     refinement: l.refinement,
                 },
                 ViewImages {
-                    color: r.image,
+                    color: r.image(),
                     cost_heat: r.cost_heat,
                     refinement: r.refinement,
                 },

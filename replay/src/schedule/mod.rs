@@ -17,21 +17,8 @@ pub use tile_pair::TilePair;
 use shadetrace_formats::results::ListStats;
 
 use crate::bins::Bins;
+pub use crate::command::{Command, Job, Unit};
 use crate::vertex_stage::SetupTriangle;
-
-/// One triangle rasterized into one tile of one view.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Unit {
-    pub view: u8,
-    pub tile: u32,
-    /// Index into the view's setup triangles (submission order).
-    pub tri: u32,
-    /// Scheduler-defined issue rank (e.g. the multi-view traversal position).
-    pub rank: u64,
-    /// Tile-pair sequence (from 1) the unit belongs to; 0 outside any sequence. Shading
-    /// caches are cleared when it changes.
-    pub sequence: u32,
-}
 
 /// What a scheduler sees: the exact bins and the setup triangles of both views.
 pub struct ScheduleInput<'a> {
@@ -43,12 +30,6 @@ pub struct ScheduleInput<'a> {
 pub struct Schedule {
     pub jobs: Vec<Job>,
     pub lists: ListTraffic,
-}
-
-/// Units run in order by one worker with one shading-scheme state; jobs run in parallel.
-#[derive(Clone, Debug, Default)]
-pub struct Job {
-    pub units: Vec<Unit>,
 }
 
 /// Index-list traffic and statistics of a schedule.
@@ -63,7 +44,8 @@ pub trait Scheduler: Sync {
     /// Splits the binned work into jobs and accounts for the lists it builds.
     fn schedule(&self, input: &ScheduleInput) -> Schedule;
     /// Sort key of a unit in the order the hardware would issue it (memory-model order):
-    /// `pass` is 0 for a depth pre-pass, 1 for shading; `job` and `index` locate the unit.
+    /// `pass` is 0 for a depth pre-pass, 1 for the geometry pass; `job` and `index` (the
+    /// command's position in its job) locate the unit.
     fn issue_key(&self, unit: &Unit, pass: u8, job: usize, index: usize) -> [u64; 4];
     /// Binned architectures store the vertex stage's output in DRAM.
     fn stores_vertex_output(&self) -> bool;
@@ -93,14 +75,15 @@ pub fn per_tile_jobs(bins: &Bins) -> Vec<Job> {
         for (tile, list) in lists.iter().enumerate() {
             if !list.is_empty() {
                 jobs.push(Job {
-                    units: list
+                    commands: list
                         .iter()
-                        .map(|&tri| Unit {
-                            view: view as u8,
-                            tile: tile as u32,
-                            tri,
-                            rank: 0,
-                            sequence: 0,
+                        .map(|&tri| {
+                            Command::Draw(Unit {
+                                view: view as u8,
+                                tile: tile as u32,
+                                tri,
+                                rank: 0,
+                            })
                         })
                         .collect(),
                 });

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use shadetrace_formats::results::ListStats;
 
 use super::pairing::{pair_tiles, TileSpan};
-use super::{per_tile_jobs, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
+use super::{per_tile_jobs, Command, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
 
 pub struct Multiview;
 
@@ -83,7 +83,10 @@ impl Scheduler for Multiview {
         }
         let mut jobs = per_tile_jobs(input.bins);
         for job in &mut jobs {
-            for unit in &mut job.units {
+            for unit in job.commands.iter_mut().filter_map(|c| match c {
+                Command::Draw(u) => Some(u),
+                _ => None,
+            }) {
                 let prim = input.setups[unit.view as usize][unit.tri as usize].prim;
                 let row = unit.tile / grid.tiles_x;
                 let position = ranks.get(&(unit.view, unit.tile, prim)).copied().unwrap_or(0);

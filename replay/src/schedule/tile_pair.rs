@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 
 use super::pairing::{pair_tiles, TileSpan};
-use super::{tile_list_stats, Job, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
+use super::{tile_list_stats, Command, Job, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
 
 /// Bytes of one tile-pair list entry (a u16 index into a tile list).
 pub const PAIR_ENTRY_BYTES: u64 = 2;
@@ -44,11 +44,7 @@ impl Scheduler for TilePair {
         stats.tile_pair_entries = rows.iter().map(|r| r.pair_entries).sum();
         stats.tile_pair_list_bytes = stats.tile_pair_entries * PAIR_ENTRY_BYTES;
         Schedule {
-            jobs: rows
-                .into_iter()
-                .map(|r| r.job)
-                .filter(|j| !j.units.is_empty())
-                .collect(),
+            jobs: rows.into_iter().map(|r| r.job).filter(|j| !j.is_empty()).collect(),
             // Both kinds of lists are written while binning and read while rasterizing.
             lists: ListTraffic {
                 index_bytes: 2 * (stats.tile_list_bytes + stats.tile_pair_list_bytes),
@@ -101,8 +97,9 @@ impl TilePair {
         // Units: both tiles of each pair, a triangle once per tile, then the leftovers.
         let mut done: [Vec<Vec<bool>>; 2] =
             [0, 1].map(|v| (0..tiles_x).map(|x| vec![false; list(v, x).len()]).collect());
-        let mut units = Vec::new();
-        let mut emit = |v: usize, x: u32, prim: Option<u32>, sequence: u32, units: &mut Vec<Unit>| {
+        let mut commands = Vec::new();
+        let mut current = 0u32;
+        let mut emit = |v: usize, x: u32, prim: Option<u32>, sequence: u32, commands: &mut Vec<Command>| {
             let l = list(v, x);
             let range = match prim {
                 Some(p) => {
@@ -115,31 +112,34 @@ impl TilePair {
             for i in range {
                 if !done[v][x as usize][i] {
                     done[v][x as usize][i] = true;
-                    units.push(Unit {
+                    if sequence != current {
+                        current = sequence;
+                        commands.push(Command::BeginSequence);
+                    }
+                    commands.push(Command::Draw(Unit {
                         view: v as u8,
                         tile: row * tiles_x + x,
                         tri: l[i],
                         rank: 0,
-                        sequence,
-                    });
+                    }));
                 }
             }
         };
         for (s, sequence) in sequences.iter().enumerate() {
             for pair in sequence {
                 for &prim in &pair_lists[pair] {
-                    emit(0, pair.0, Some(prim), s as u32 + 1, &mut units);
-                    emit(1, pair.1, Some(prim), s as u32 + 1, &mut units);
+                    emit(0, pair.0, Some(prim), s as u32 + 1, &mut commands);
+                    emit(1, pair.1, Some(prim), s as u32 + 1, &mut commands);
                 }
             }
         }
         for v in 0..2 {
             for x in 0..tiles_x {
-                emit(v, x, None, 0, &mut units);
+                emit(v, x, None, 0, &mut commands);
             }
         }
         RowSchedule {
-            job: Job { units },
+            job: Job { commands },
             pairs: pair_lists.len() as u64,
             pair_entries,
         }
@@ -246,7 +246,12 @@ mod tests {
             let mut seen: Vec<(u8, u32, u32)> = schedule
                 .jobs
                 .iter()
-                .flat_map(|j| j.units.iter().map(|u| (u.view, u.tile, u.tri)))
+                .flat_map(|j| {
+                    j.commands
+                        .iter()
+                        .filter_map(|c| c.unit())
+                        .map(|u| (u.view, u.tile, u.tri))
+                })
                 .collect();
             let total = seen.len();
             seen.sort_unstable();

@@ -1,6 +1,7 @@
-//! Shading schemes decide what is shaded where: they receive the quads of one unit that
-//! survived early-z and return a colour per lane, spending instructions through the cost
-//! model. A scheme never knows the scheduler's order beyond the units it is given.
+//! Shading schemes decide what is shaded where. A forward scheme receives the quads of one
+//! unit that survived early-z and returns a colour per lane; a scheme that shades after
+//! visibility receives each finished tile's samples. Both spend instructions through the
+//! cost model. A scheme never knows the scheduler's order beyond the commands it is given.
 
 pub mod multirate;
 mod per_pixel;
@@ -13,7 +14,8 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{ShadingCacheStats, ShadingCost};
 
 use crate::geometry::{FrameGeometry, Triangle};
-use crate::memory::AccessLog;
+use crate::memory::{AccessLog, FramebufferLayout};
+use crate::pipeline::TileBuffer;
 use crate::raster::pixel_center;
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
@@ -98,9 +100,24 @@ pub const REFINED_DIFFUSE: u8 = 1;
 pub const REFINED_SPECULAR: u8 = 2;
 pub const REFINED_SHADOW: u8 = 4;
 
-/// A shading scheme; `begin_job` makes the per-job state (caches live there).
+/// The passes a scheme runs over the scheduler's geometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Passes {
+    /// Shade quads as they are rasterized ([`SchemeJob::shade_unit`]), then blend.
+    Forward,
+    /// Rasterize for visibility only (opaque surfaces), then shade each finished tile from
+    /// its samples ([`SchemeJob::shade_tile`]).
+    ShadeAfterVisibility,
+}
+
+/// A shading scheme; `begin_job` makes the per-job state (caches live there, so a cache sees
+/// exactly the commands of one job: a tile under `immediate`, `sort-middle` and `multiview`,
+/// an epipolar tile row of both views under `tile-pair`).
 pub trait ShadingScheme: Sync {
     fn name(&self) -> &'static str;
+    fn passes(&self) -> Passes {
+        Passes::Forward
+    }
     /// The edge-receiver threshold when the scheme needs the receiver hierarchy.
     fn edge_receiver_delta(&self) -> Option<f32> {
         None
@@ -108,8 +125,54 @@ pub trait ShadingScheme: Sync {
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob>;
 }
 
-/// Per-job state of a scheme.
+/// Per-job state of a scheme: one required method and lifecycle hooks that default to
+/// nothing.
 pub trait SchemeJob {
-    /// Shades `quads` of one unit, writing four lane colours per quad into `colors`.
+    /// Shades `quads` of one unit, writing four lane colours per quad into `colors` (never
+    /// called under [`Passes::ShadeAfterVisibility`]).
     fn shade_unit(&mut self, ctx: &UnitContext, quads: &[ShadeQuad], colors: &mut Vec<[Vec4; 4]>, acc: &mut Accounting);
+
+    /// The scheduler starts a group of units that may share shading (a tile-pair sequence).
+    fn begin_sequence(&mut self) {}
+
+    /// A tile's visibility is final (every geometry command of the tile has run): a screen
+    /// pass reads `tile`'s depth and ids and writes its colour.
+    fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut TileBuffer, _acc: &mut Accounting) {}
+}
+
+/// What a screen pass may read while shading one tile of one view.
+pub struct TileContext<'a> {
+    pub view: u8,
+    pub eye: Vec3,
+    pub view_projections: [Mat4; 2],
+    pub eyes: [Vec3; 2],
+    pub width: u32,
+    pub height: u32,
+    /// The view's setup triangles, indexed by the tile's visibility ids.
+    pub setups: &'a [SetupTriangle],
+    pub geometry: &'a FrameGeometry,
+    pub env: &'a ShaderEnv<'a>,
+    /// Sample offsets of the pixel (MSAA pattern).
+    pub offsets: &'a [[i64; 2]],
+    pub layout: FramebufferLayout,
+}
+
+impl<'a> TileContext<'a> {
+    /// The unit context of setup triangle `tri` of this view, to interpolate its attributes.
+    pub fn unit(&self, tri: u32) -> UnitContext<'a> {
+        let setup = &self.setups[tri as usize];
+        UnitContext {
+            view: self.view,
+            eye: self.eye,
+            view_projections: self.view_projections,
+            eyes: self.eyes,
+            sequence: 0,
+            width: self.width,
+            height: self.height,
+            setup,
+            triangle: &self.geometry.triangles[setup.prim as usize],
+            geometry: self.geometry,
+            env: self.env,
+        }
+    }
 }

@@ -5,6 +5,9 @@
 //! parallel); the caches then replay all logs sequentially in the order the scheduler
 //! issued the units, so traffic depends on the schedule and never on thread count.
 
+mod framebuffer;
+
+pub use framebuffer::FramebufferLayout;
 use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};
 

@@ -1,0 +1,73 @@
+//! Output merge of a shaded unit: alpha test with late depth write, blending, opaque writes,
+//! and the colour accesses they make.
+
+use glam::Vec4;
+use shadetrace_formats::AlphaMode;
+
+use super::tile_buffer::{depth_passes, TileBuffer};
+use crate::memory::{AccessLog, FramebufferLayout, Stream};
+use crate::raster::sample_position;
+use crate::scheme::ShadeQuad;
+use crate::vertex_stage::SetupTriangle;
+use shadetrace_formats::results::RasterStats;
+
+/// What one unit's shaded quads write: `quads` pairs each quad with its passing-sample
+/// mask, `colors` holds the scheme's four lane colours per quad.
+pub struct MergeInput<'a> {
+    pub view: u8,
+    pub tri: u32,
+    pub setup: &'a SetupTriangle,
+    pub alpha: AlphaMode,
+    pub offsets: &'a [[i64; 2]],
+    pub quads: &'a [(ShadeQuad, u32)],
+    pub colors: &'a [[Vec4; 4]],
+}
+
+pub fn merge(
+    input: &MergeInput,
+    buffer: &mut TileBuffer,
+    layout: &FramebufferLayout,
+    raster: &mut RasterStats,
+    log: &mut AccessLog,
+) {
+    let samples = buffer.samples;
+    let setup = input.setup;
+    for ((quad, passed), lane_colors) in input.quads.iter().zip(input.colors) {
+        for lane in 0..4u32 {
+            let bits = passed >> (lane as usize * samples) & ((1 << samples) - 1);
+            if bits == 0 {
+                continue;
+            }
+            let (x, y) = (quad.x + (lane & 1), quad.y + (lane >> 1));
+            let src = lane_colors[lane as usize];
+            if let AlphaMode::Mask { cutoff } = input.alpha {
+                if src.w < cutoff {
+                    continue;
+                }
+            }
+            raster.fragments_shaded += 1;
+            for s in (0..samples).filter(|s| bits & (1 << s) != 0) {
+                raster.samples_passed += 1;
+                let i = buffer.index(x, y, s);
+                match input.alpha {
+                    AlphaMode::Blend => {
+                        let a = src.w.clamp(0.0, 1.0);
+                        buffer.color[i] = (src * a + buffer.color[i] * (1.0 - a)).truncate().extend(1.0);
+                        buffer.blended[i / samples] = true;
+                    }
+                    AlphaMode::Mask { .. } => {
+                        // Late depth write: only fragments that survived the alpha test.
+                        let (sx, sy) = sample_position(x, y, input.offsets[s]);
+                        let z = setup.depth(setup.edges(sx, sy));
+                        if depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i]) {
+                            buffer.write_depth(i, z, setup.prim, input.tri);
+                            buffer.color[i] = src.truncate().extend(1.0);
+                        }
+                    }
+                    AlphaMode::Opaque => buffer.color[i] = src.truncate().extend(1.0),
+                }
+            }
+            log.touch(Stream::Color, layout.color_line(input.view, x, y), true);
+        }
+    }
+}

@@ -1,0 +1,299 @@
+//! One job: its commands in order on one worker, with one scheme state and the tile buffers
+//! of the tiles its units touch; the tiles are resolved when the commands are done.
+
+use std::collections::BTreeMap;
+
+use glam::{Mat4, Vec3, Vec4};
+use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost};
+use shadetrace_formats::AlphaMode;
+
+use super::blend::{merge, MergeInput};
+use super::resolve::{resolve, TileImage};
+use super::tile_buffer::{depth_passes, TileBuffer};
+use crate::bins::TileGrid;
+use crate::command::{Command, Job, Unit};
+use crate::geometry::FrameGeometry;
+use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
+use crate::raster::{rasterize, sample_position};
+use crate::scheme::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext};
+use crate::shader::ShaderEnv;
+use crate::vertex_stage::SetupTriangle;
+
+/// Bytes per vertex of triangle data: position, normal, uv (8 floats).
+pub const VERTEX_BYTES: u64 = 32;
+
+/// What every job of a frame reads.
+pub struct JobContext<'a> {
+    pub grid: TileGrid,
+    pub setups: [&'a [SetupTriangle]; 2],
+    pub geometry: &'a FrameGeometry,
+    pub env: &'a ShaderEnv<'a>,
+    pub eyes: [Vec3; 2],
+    pub view_projections: [Mat4; 2],
+    pub layout: FramebufferLayout,
+    pub offsets: &'static [[i64; 2]],
+    pub simd_width: u32,
+    /// A depth pre-pass ran first: later passes test for equal depth and write none.
+    pub z_prepass: bool,
+}
+
+/// Everything a job produced; per-view arrays are indexed by view.
+pub struct JobOutput {
+    /// Access logs of the commands that made accesses, with the command's index.
+    pub logs: Vec<(usize, AccessLog)>,
+    pub raster: [RasterStats; 2],
+    pub cost: [ShadingCost; 2],
+    pub tiles: Vec<TileImage>,
+    pub heat: BTreeMap<u32, u32>,
+    pub refinement: BTreeMap<u32, u8>,
+    pub cache: [ShadingCacheStats; 2],
+}
+
+/// Reusable per-job scratch (no allocation per unit).
+#[derive(Default)]
+struct Scratch {
+    quads: Vec<(ShadeQuad, u32)>,
+    shade_quads: Vec<ShadeQuad>,
+    colors: Vec<[Vec4; 4]>,
+}
+
+pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
+    let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
+    let mut buffers: BTreeMap<(u8, u32), TileBuffer> = BTreeMap::new();
+    let mut out = JobOutput {
+        logs: Vec::with_capacity(job.commands.len()),
+        raster: [RasterStats::default(); 2],
+        cost: [ShadingCost::new(ctx.simd_width); 2],
+        tiles: Vec::new(),
+        heat: BTreeMap::new(),
+        refinement: BTreeMap::new(),
+        cache: [ShadingCacheStats::default(); 2],
+    };
+    let mut scratch = Scratch::default();
+    let mut sequence = 0u32;
+    for (index, command) in job.commands.iter().enumerate() {
+        let log = match *command {
+            Command::BeginSequence => {
+                sequence += 1;
+                scheme_job.begin_sequence();
+                continue;
+            }
+            Command::Draw(unit) | Command::DepthPrepass(unit) | Command::Visibility(unit) => {
+                let buffer = buffers.entry((unit.view, unit.tile)).or_insert_with(|| {
+                    TileBuffer::new(unit.view, unit.tile, ctx.grid.rect(unit.tile), ctx.offsets.len())
+                });
+                geometry_command(
+                    ctx,
+                    command,
+                    unit,
+                    sequence,
+                    buffer,
+                    scheme_job.as_mut(),
+                    &mut scratch,
+                    &mut out,
+                )
+            }
+            Command::ShadeTile { view, tile } => match buffers.get_mut(&(view, tile)) {
+                Some(buffer) => shade_tile(ctx, buffer, scheme_job.as_mut(), &mut out),
+                None => continue,
+            },
+        };
+        out.logs.push((index, log));
+    }
+    out.tiles = buffers.values().map(resolve).collect();
+    out
+}
+
+/// Raster, depth test and (for `Draw`) shading and output merge of one unit.
+#[allow(clippy::too_many_arguments)]
+fn geometry_command(
+    ctx: &JobContext,
+    command: &Command,
+    unit: Unit,
+    sequence: u32,
+    buffer: &mut TileBuffer,
+    scheme_job: &mut dyn SchemeJob,
+    scratch: &mut Scratch,
+    out: &mut JobOutput,
+) -> AccessLog {
+    let prepass = matches!(command, Command::DepthPrepass(_));
+    let shading = matches!(command, Command::Draw(_));
+    let samples = buffer.samples;
+    let v = unit.view as usize;
+    let setup = &ctx.setups[v][unit.tri as usize];
+    let triangle = &ctx.geometry.triangles[setup.prim as usize];
+    let material = &ctx.env.materials[triangle.material as usize];
+    let mut log = AccessLog::new();
+    let raster = &mut out.raster[v];
+    if !prepass {
+        raster.units += 1;
+    }
+    let opaque = material.alpha == AlphaMode::Opaque;
+    if !shading && !opaque {
+        // Depth-only passes skip surfaces whose visibility needs their shading (alpha).
+        return log;
+    }
+    if setup.z_min > buffer.max_depth {
+        if !prepass {
+            raster.hiz_culled_units += 1;
+        }
+        return log;
+    }
+    for vertex in triangle.vertices {
+        log.touch(Stream::TriangleData, vertex as u64 * VERTEX_BYTES / LINE_BYTES, false);
+    }
+    // Rasterize and depth-test; opaque surfaces write depth at once (early-z).
+    let quads = &mut scratch.quads;
+    quads.clear();
+    let layout = ctx.layout;
+    let writes_depth = opaque && (prepass || !ctx.z_prepass);
+    rasterize(setup, buffer.rect, ctx.offsets, |q| {
+        if !prepass {
+            raster.quads_rasterized += 1;
+        }
+        let mut passed = 0u32;
+        for lane in 0..4u32 {
+            let lane_bits = q.coverage >> (lane as usize * samples) & ((1 << samples) - 1);
+            if lane_bits == 0 {
+                continue;
+            }
+            let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
+            let mut wrote = false;
+            for s in 0..samples {
+                if lane_bits & (1 << s) == 0 {
+                    continue;
+                }
+                let (sx, sy) = sample_position(x, y, ctx.offsets[s]);
+                let z = setup.depth(setup.edges(sx, sy));
+                let i = buffer.index(x, y, s);
+                let pass_test = if ctx.z_prepass && !prepass && opaque {
+                    z == buffer.depth[i] && setup.prim == buffer.prim[i]
+                } else {
+                    depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i])
+                };
+                if pass_test {
+                    passed |= 1 << (lane as usize * samples + s);
+                    if writes_depth {
+                        buffer.write_depth(i, z, setup.prim, unit.tri);
+                        wrote = true;
+                    }
+                }
+            }
+            log.touch(Stream::Depth, layout.depth_line(unit.view, x, y), wrote);
+        }
+        if passed != 0 && shading {
+            quads.push((
+                ShadeQuad {
+                    x: q.x,
+                    y: q.y,
+                    lanes: lane_mask(passed, samples),
+                },
+                passed,
+            ));
+        }
+    });
+    if shading {
+        scratch.shade_quads.clear();
+        scratch.shade_quads.extend(scratch.quads.iter().map(|q| q.0));
+        scratch.colors.clear();
+        let unit_ctx = UnitContext {
+            view: unit.view,
+            eye: ctx.eyes[v],
+            view_projections: ctx.view_projections,
+            eyes: ctx.eyes,
+            sequence,
+            width: ctx.grid.width,
+            height: ctx.grid.height,
+            setup,
+            triangle,
+            geometry: ctx.geometry,
+            env: ctx.env,
+        };
+        let heat = &mut out.heat;
+        let refinement = &mut out.refinement;
+        scheme_job.shade_unit(
+            &unit_ctx,
+            &scratch.shade_quads,
+            &mut scratch.colors,
+            &mut Accounting {
+                cost: &mut out.cost[v],
+                log: &mut log,
+                heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
+                refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
+                cache: &mut out.cache[v],
+            },
+        );
+        let raster = &mut out.raster[v];
+        raster.quads_shaded += scratch.quads.len() as u64;
+        let input = MergeInput {
+            view: unit.view,
+            tri: unit.tri,
+            setup,
+            alpha: material.alpha,
+            offsets: ctx.offsets,
+            quads: &scratch.quads,
+            colors: &scratch.colors,
+        };
+        merge(&input, buffer, &layout, raster, &mut log);
+    }
+    buffer.update_max_depth();
+    log
+}
+
+/// A screen pass over one tile: the scheme reads the resolved visibility and writes colour.
+fn shade_tile(
+    ctx: &JobContext,
+    buffer: &mut TileBuffer,
+    scheme_job: &mut dyn SchemeJob,
+    out: &mut JobOutput,
+) -> AccessLog {
+    let v = buffer.view as usize;
+    let mut log = AccessLog::new();
+    let raster = &mut out.raster[v];
+    let samples = buffer.samples;
+    for first in (0..buffer.depth.len()).step_by(samples) {
+        let visible = buffer.prim[first..first + samples]
+            .iter()
+            .filter(|&&p| p != super::tile_buffer::NO_PRIMITIVE)
+            .count();
+        raster.samples_passed += visible as u64;
+        raster.fragments_shaded += u64::from(visible > 0);
+    }
+    let tile_ctx = TileContext {
+        view: buffer.view,
+        eye: ctx.eyes[v],
+        view_projections: ctx.view_projections,
+        eyes: ctx.eyes,
+        width: ctx.grid.width,
+        height: ctx.grid.height,
+        setups: ctx.setups[v],
+        geometry: ctx.geometry,
+        env: ctx.env,
+        offsets: ctx.offsets,
+        layout: ctx.layout,
+    };
+    let heat = &mut out.heat;
+    let refinement = &mut out.refinement;
+    scheme_job.shade_tile(
+        &tile_ctx,
+        buffer,
+        &mut Accounting {
+            cost: &mut out.cost[v],
+            log: &mut log,
+            heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
+            refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
+            cache: &mut out.cache[v],
+        },
+    );
+    log
+}
+
+fn lane_mask(passed: u32, samples: usize) -> u8 {
+    (0..4).fold(0u8, |m, lane| {
+        if passed >> (lane * samples) & ((1 << samples) - 1) != 0 {
+            m | 1 << lane
+        } else {
+            m
+        }
+    })
+}

@@ -1,0 +1,276 @@
+//! The shared pipeline of one frame, as a short list of stages over named intermediate
+//! results (in the manner of cudaraster's `launchStages`):
+//!
+//! 1. [`FrameGeometry`] — world-space triangles; 2. the shadow pass; 3. per view the vertex
+//!    stage ([`ViewSetup`]); 4. [`Bins`]; 5. the scheduler's jobs, made into command lists
+//!    for the scheme's passes ([`commands_for`]); 6. jobs in parallel ([`job::run_job`]);
+//!    7. the memory model replays the commands' accesses in issue order; 8. the views are
+//!    assembled from the jobs' tiles.
+
+mod assemble;
+mod blend;
+mod job;
+mod resolve;
+mod tile_buffer;
+
+use rayon::prelude::*;
+use shadetrace_formats::results::{
+    CacheReport, ListStats, RasterStats, ShadingCacheStats, ShadingCost, ShadowPassStats, Traffic, VertexStats,
+};
+use shadetrace_formats::{Eye, Frame, LightKind, Meta, Scene};
+
+use crate::bins::{Bins, TileGrid};
+use crate::command::{Command, Job};
+use crate::geometry::FrameGeometry;
+use crate::memory::{simulate, AccessLog, CacheSizes, FramebufferLayout};
+use crate::options::ReplayOptions;
+use crate::raster::sample_offsets;
+use crate::schedule::{ScheduleInput, Scheduler};
+use crate::scheme::{Passes, ShadingScheme};
+use crate::shader::{ShaderEnv, ShadingLight};
+use crate::shadow::{ReceiverHierarchy, ShadowMap};
+use crate::texture::MipTexture;
+use crate::vertex_stage::{setup_view, SetupTriangle};
+use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
+pub use tile_buffer::{depth_passes, TileBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+
+/// Scene data prepared once per trace: mip chains and lights.
+pub struct PreparedScene {
+    pub scene: Scene,
+    pub textures: Vec<MipTexture>,
+    pub lights: Vec<ShadingLight>,
+    pub double_sided: Vec<bool>,
+    /// First free line of the texture address space (the shadow map goes there).
+    pub texture_lines: u64,
+}
+
+impl PreparedScene {
+    pub fn new(scene: Scene) -> PreparedScene {
+        let mut line = 0;
+        let textures = scene
+            .textures
+            .iter()
+            .map(|t| {
+                let (m, next) = MipTexture::build(t, line);
+                line = next;
+                m
+            })
+            .collect();
+        let lights = scene
+            .lights
+            .iter()
+            .map(|l| ShadingLight {
+                kind: l.kind,
+                radiance: l.color * l.intensity,
+                shadowed: l.shadowed,
+            })
+            .collect();
+        let double_sided = scene.materials.iter().map(|m| m.double_sided).collect();
+        PreparedScene {
+            scene,
+            textures,
+            lights,
+            double_sided,
+            texture_lines: line,
+        }
+    }
+}
+
+/// Everything one frame of one back-end produced.
+pub struct FrameOutput {
+    pub views: [ViewOutput; 2],
+    pub traffic: Traffic,
+    pub caches: CacheReport,
+    pub lists: ListStats,
+    pub shadow_pass: Option<ShadowPassStats>,
+}
+
+pub struct ViewOutput {
+    pub vertex: VertexStats,
+    pub raster: RasterStats,
+    pub cost: ShadingCost,
+    pub width: u32,
+    pub height: u32,
+    /// sRGB pixels, row-major.
+    pub pixels: Vec<[u8; 4]>,
+    /// Issued instructions per pixel (every SIMD group adds its count to each of its lanes).
+    pub cost_heat: Vec<u32>,
+    /// Per pixel, the union of `REFINED_*` bits over its fragments (multi-rate schemes).
+    pub refinement: Vec<u8>,
+    pub cache: ShadingCacheStats,
+}
+
+impl ViewOutput {
+    pub fn image(&self) -> crate::images::Rgba8Image {
+        crate::images::Rgba8Image {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.clone(),
+        }
+    }
+}
+
+/// The vertex stage's output for one view.
+pub struct ViewSetup {
+    pub triangles: Vec<SetupTriangle>,
+    pub stats: VertexStats,
+}
+
+/// Runs one frame through `scheduler` x `scheme`.
+pub fn run_frame(
+    prepared: &PreparedScene,
+    meta: &Meta,
+    frame: &Frame,
+    opts: &ReplayOptions,
+    scheduler: &dyn Scheduler,
+    scheme: &dyn ShadingScheme,
+) -> FrameOutput {
+    let (width, height) = opts.resolution.unwrap_or((frame.rig.eye_width, frame.rig.eye_height));
+    let mut rig = frame.rig;
+    rig.eye_width = width;
+    rig.eye_height = height;
+    let geometry = FrameGeometry::build(&prepared.scene, frame);
+    let shadow = shadow_pass(prepared, meta, &geometry, opts);
+    let receivers: Option<ReceiverHierarchy> = match (&shadow, scheme.edge_receiver_delta()) {
+        (Some(map), Some(delta)) => Some(map.receivers(delta)),
+        _ => None,
+    };
+    let env = ShaderEnv {
+        materials: &prepared.scene.materials,
+        textures: &prepared.textures,
+        lights: &prepared.lights,
+        shadow: shadow.as_ref(),
+        receivers: receivers.as_ref(),
+    };
+    let views: [ViewSetup; 2] = Eye::BOTH.map(|eye| {
+        let (triangles, stats) = setup_view(
+            &geometry,
+            &prepared.double_sided,
+            rig.view_projection(eye),
+            width,
+            height,
+        );
+        ViewSetup { triangles, stats }
+    });
+    let setups = [views[0].triangles.as_slice(), views[1].triangles.as_slice()];
+    let grid = TileGrid::new(width, height, opts.tile);
+    let bins = Bins::build(grid, setups);
+    let schedule = scheduler.schedule(&ScheduleInput { bins: &bins, setups });
+    let jobs: Vec<Job> = schedule
+        .jobs
+        .into_iter()
+        .map(|job| commands_for(job, opts.z_prepass, scheme.passes()))
+        .collect();
+    let layout = FramebufferLayout::new(width, height, opts.msaa);
+    let ctx = JobContext {
+        grid,
+        setups,
+        geometry: &geometry,
+        env: &env,
+        eyes: Eye::BOTH.map(|eye| rig.eye_position(eye)),
+        view_projections: Eye::BOTH.map(|eye| rig.view_projection(eye)),
+        layout,
+        offsets: sample_offsets(opts.msaa),
+        simd_width: opts.simd_width,
+        z_prepass: opts.z_prepass,
+    };
+    let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
+    let sizes = CacheSizes {
+        depth: layout.depth_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
+        color: layout.color_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
+        triangle_data: opts.triangle_cache_kb as u64 * 1024,
+        texture: opts.texture_cache_kb as u64 * 1024,
+    };
+    let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs);
+    traffic.indices += schedule.lists.index_bytes;
+    if scheduler.stores_vertex_output() {
+        traffic.triangle_data += geometry.positions.len() as u64 * VERTEX_BYTES;
+    }
+    let [left, right] = views;
+    let views =
+        [(0, left), (1, right)].map(|(v, setup)| assemble::view(v, setup.stats, grid, opts.simd_width, &outputs));
+    FrameOutput {
+        views,
+        traffic,
+        caches,
+        lists: schedule.lists.stats,
+        shadow_pass: shadow.map(|s| s.stats),
+    }
+}
+
+/// The shadow map of the trace's shadowed directional light, if it has one.
+fn shadow_pass(
+    prepared: &PreparedScene,
+    meta: &Meta,
+    geometry: &FrameGeometry,
+    opts: &ReplayOptions,
+) -> Option<ShadowMap> {
+    let direction = prepared.lights.iter().find(|l| l.shadowed).and_then(|l| match l.kind {
+        LightKind::Directional { direction } => Some(direction),
+        _ => None,
+    })?;
+    Some(ShadowMap::render(
+        geometry,
+        prepared.scene.materials.len(),
+        direction,
+        &meta.bounds,
+        opts.shadow_map_size,
+        prepared.texture_lines,
+    ))
+}
+
+/// A scheduler's job as the commands of the scheme's passes: a depth pre-pass of every unit
+/// first when asked; `Visibility` instead of `Draw` and a `ShadeTile` per touched tile (in
+/// (view, tile) order) for schemes that shade after visibility.
+pub fn commands_for(job: Job, z_prepass: bool, passes: Passes) -> Job {
+    let mut commands = Vec::with_capacity(job.commands.len() * (1 + z_prepass as usize));
+    if z_prepass {
+        commands.extend(job.commands.iter().filter_map(|c| match c {
+            Command::Draw(u) => Some(Command::DepthPrepass(*u)),
+            _ => None,
+        }));
+    }
+    match passes {
+        Passes::Forward => commands.extend(job.commands),
+        Passes::ShadeAfterVisibility => {
+            let mut tiles = std::collections::BTreeSet::new();
+            for command in job.commands {
+                match command {
+                    Command::Draw(u) => {
+                        tiles.insert((u.view, u.tile));
+                        commands.push(Command::Visibility(u));
+                    }
+                    other => commands.push(other),
+                }
+            }
+            commands.extend(tiles.into_iter().map(|(view, tile)| Command::ShadeTile { view, tile }));
+        }
+    }
+    Job { commands }
+}
+
+/// Replays every command's accesses through the caches in the order the hardware would
+/// issue them: geometry commands by the scheduler's issue key, then screen passes by
+/// (view, tile).
+fn memory_pass(
+    sizes: CacheSizes,
+    scheduler: &dyn Scheduler,
+    jobs: &[Job],
+    outputs: &[JobOutput],
+) -> (Traffic, CacheReport) {
+    let mut order: Vec<(u8, [u64; 4], usize, usize)> = Vec::new();
+    for (j, out) in outputs.iter().enumerate() {
+        for (l, (index, _)) in out.logs.iter().enumerate() {
+            let key = match jobs[j].commands[*index] {
+                Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, *index)),
+                Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, *index)),
+                Command::ShadeTile { view, tile } => (1, [view as u64, tile as u64, 0, 0]),
+                Command::BeginSequence => continue,
+            };
+            order.push((key.0, key.1, j, l));
+        }
+    }
+    order.sort_unstable();
+    let ordered: Vec<&AccessLog> = order.iter().map(|&(_, _, j, l)| &outputs[j].logs[l].1).collect();
+    simulate(sizes, &ordered)
+}

@@ -1,0 +1,37 @@
+//! Resolve: the samples of each pixel averaged in linear space and encoded sRGB.
+
+use glam::Vec4;
+
+use super::tile_buffer::{TileBuffer, CLEAR_COLOR};
+use crate::raster::Rect;
+use crate::srgb::linear_to_srgb8;
+
+/// A tile's final pixels (row-major in `rect`).
+pub struct TileImage {
+    pub view: u8,
+    pub rect: Rect,
+    pub pixels: Vec<[u8; 4]>,
+}
+
+pub fn resolve(buffer: &TileBuffer) -> TileImage {
+    let samples = buffer.samples;
+    let pixels = buffer
+        .color
+        .chunks_exact(samples)
+        .map(|s| encode(s.iter().copied().sum::<Vec4>() / samples as f32))
+        .collect();
+    TileImage {
+        view: buffer.view,
+        rect: buffer.rect,
+        pixels,
+    }
+}
+
+/// The sRGB pixel of pixels nothing covers.
+pub fn clear_pixel() -> [u8; 4] {
+    encode(CLEAR_COLOR)
+}
+
+fn encode(c: Vec4) -> [u8; 4] {
+    [linear_to_srgb8(c.x), linear_to_srgb8(c.y), linear_to_srgb8(c.z), 255]
+}

@@ -1,0 +1,83 @@
+//! A tile's on-chip buffers: depth, primitive id, setup-triangle id and linear colour per
+//! sample, plus the farthest depth of the tile used to cull whole units. Jobs own the tiles
+//! their units touch; screen passes read the resolved samples here.
+
+use glam::Vec4;
+
+use crate::raster::Rect;
+
+/// Linear colour of samples no triangle covers.
+pub const CLEAR_COLOR: Vec4 = Vec4::new(0.05, 0.06, 0.08, 1.0);
+/// Primitive and setup ids of samples no triangle covers.
+pub const NO_PRIMITIVE: u32 = u32::MAX;
+
+/// Per-sample buffers of one tile of one view, `samples` consecutive entries per pixel,
+/// pixels row-major inside `rect`.
+pub struct TileBuffer {
+    pub view: u8,
+    pub tile: u32,
+    pub rect: Rect,
+    pub samples: usize,
+    pub depth: Vec<f32>,
+    /// Primitive id of the visible surface (the depth test's tie-breaker).
+    pub prim: Vec<u32>,
+    /// Index of the visible surface's setup triangle in its view (the visibility id).
+    pub tri: Vec<u32>,
+    pub color: Vec<Vec4>,
+    /// Per pixel: whether a blended fragment wrote its colour (blending leaves no id).
+    pub blended: Vec<bool>,
+    /// Farthest depth of any sample: a unit whose nearest depth lies behind it is culled
+    /// whole (one bound per tile, recomputed after every unit that writes depth).
+    pub max_depth: f32,
+}
+
+impl TileBuffer {
+    pub fn new(view: u8, tile: u32, rect: Rect, samples: usize) -> TileBuffer {
+        let n = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as usize * samples;
+        TileBuffer {
+            view,
+            tile,
+            rect,
+            samples,
+            depth: vec![1.0; n],
+            prim: vec![NO_PRIMITIVE; n],
+            tri: vec![NO_PRIMITIVE; n],
+            color: vec![CLEAR_COLOR; n],
+            blended: vec![false; n / samples],
+            max_depth: 1.0,
+        }
+    }
+
+    /// Index of sample `s` of pixel (x, y), in tile-space order.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32, s: usize) -> usize {
+        (((y - self.rect.y0) * (self.rect.x1 - self.rect.x0) + (x - self.rect.x0)) as usize) * self.samples + s
+    }
+
+    /// Records the visible surface of a sample.
+    #[inline]
+    pub fn write_depth(&mut self, i: usize, z: f32, prim: u32, tri: u32) {
+        self.depth[i] = z;
+        self.prim[i] = prim;
+        self.tri[i] = tri;
+    }
+
+    /// Whether any surface covers a sample of the pixel whose samples start at `first`.
+    pub fn covered(&self, first: usize) -> bool {
+        self.blended[first / self.samples]
+            || self.prim[first..first + self.samples]
+                .iter()
+                .any(|&p| p != NO_PRIMITIVE)
+    }
+
+    pub fn update_max_depth(&mut self) {
+        self.max_depth = self.depth.iter().copied().fold(0.0f32, f32::max);
+    }
+}
+
+/// Depth test with order-independent ties: the lower primitive id wins, as LESS does in
+/// submission order.
+#[inline]
+pub fn depth_passes(z: f32, prim: u32, buf_z: f32, buf_prim: u32) -> bool {
+    z < buf_z || (z == buf_z && prim < buf_prim)
+}
