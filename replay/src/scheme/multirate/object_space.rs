@@ -18,7 +18,10 @@
 
 use glam::{Mat2, Vec2, Vec3};
 
-use super::{CacheSpace, CoarseBlock, CoarseMode, MultirateJob, NONE};
+use super::block::CoarseBlock;
+use super::config::{CacheSpace, CoarseMode};
+use super::predicates::NONE;
+use super::MultirateJob;
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
 use crate::raster::pixel_center;

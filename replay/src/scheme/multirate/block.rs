@@ -1,0 +1,129 @@
+//! Coarse blocks of screen-space multi-rate shading: a block's geometry and bilinear weights,
+//! grouping a unit's quads into blocks, where each fine lane reads its coarse terms, and the
+//! placement of a block's coarse samples.
+
+use glam::Vec2;
+
+use super::predicates::NONE;
+use super::MultirateJob;
+use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
+use crate::shader::{Effects, LightTerm};
+use crate::vertex_stage::SUBPIXEL;
+
+/// One block of four coarse fragments.
+pub(super) struct CoarseBlock {
+    pub(super) x0: u32,
+    pub(super) y0: u32,
+    pub(super) size: u32,
+    /// Useful pixels, bit `(y - y0) * size + (x - x0)`.
+    pub(super) coverage: u64,
+    /// Sample positions in pixels (continuous), order (0,0) (1,0) (0,1) (1,1).
+    pub(super) samples: [Vec2; 4],
+    /// Per sample, per light.
+    pub(super) terms: Vec<LightTerm>,
+    pub(super) refine: Effects,
+    /// Index of the block's first coarse lane (four consecutive lanes).
+    pub(super) first_lane: usize,
+}
+
+impl CoarseBlock {
+    pub(super) fn new(x0: u32, y0: u32, size: u32) -> CoarseBlock {
+        CoarseBlock {
+            x0,
+            y0,
+            size,
+            coverage: 0,
+            samples: [Vec2::ZERO; 4],
+            terms: Vec::new(),
+            refine: NONE,
+            first_lane: 0,
+        }
+    }
+
+    pub(super) fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && y >= self.y0 && x < self.x0 + self.size && y < self.y0 + self.size
+    }
+
+    /// Bilinear weights of a pixel centre between the samples (extrapolating outside them).
+    pub(super) fn weights(&self, x: u32, y: u32) -> [f32; 4] {
+        let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+        let s = &self.samples;
+        let u = if s[1].x > s[0].x {
+            (p.x - s[0].x) / (s[1].x - s[0].x)
+        } else {
+            0.0
+        };
+        let v = if s[2].y > s[0].y {
+            (p.y - s[0].y) / (s[2].y - s[0].y)
+        } else {
+            0.0
+        };
+        [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
+    }
+
+    /// The coarse fragment (0..4) a pixel of the block belongs to.
+    pub(super) fn fragment_of(&self, x: u32, y: u32) -> usize {
+        let half = self.size / 2;
+        (((y - self.y0) / half) * 2 + (x - self.x0) / half) as usize
+    }
+}
+
+impl MultirateJob {
+    /// Groups quads into blocks of `size` pixels (skipping pixels outside `within`).
+    pub(super) fn group(quads: &[ShadeQuad], size: u32, within: Option<&CoarseBlock>, out: &mut Vec<CoarseBlock>) {
+        for quad in quads {
+            for lane in 0..4u32 {
+                let (x, y) = (quad.x + (lane & 1), quad.y + (lane >> 1));
+                if quad.lanes & (1 << lane) == 0 || within.is_some_and(|w| !w.contains(x, y)) {
+                    continue;
+                }
+                let (x0, y0) = (x / size * size, y / size * size);
+                let index = match out.iter().position(|b| b.x0 == x0 && b.y0 == y0) {
+                    Some(i) => i,
+                    None => {
+                        out.push(CoarseBlock::new(x0, y0, size));
+                        out.len() - 1
+                    }
+                };
+                out[index].coverage |= 1 << ((y - y0) * size + (x - x0));
+            }
+        }
+    }
+
+    /// Per lane of quad `index`: its block, bilinear weights and coarse lane. Screen blocks
+    /// are found by position (a quad lies in one block); object-space lanes were assigned to
+    /// cells, and belong to the coarse lane of their nearest corner.
+    pub(super) fn lane_sources(&self, index: usize, quad: &ShadeQuad) -> Option<[(usize, [f32; 4], usize); 4]> {
+        if let Some(sources) = self.sources.get(index) {
+            return Some(sources.map(|s| {
+                let nearest = (0..4).fold(0, |m, i| if s.weights[i] > s.weights[m] { i } else { m });
+                (s.block, s.weights, self.blocks[s.block].first_lane + nearest)
+            }));
+        }
+        let block = self.blocks.iter().position(|b| b.contains(quad.x, quad.y))?;
+        let b = &self.blocks[block];
+        Some(std::array::from_fn(|l| {
+            let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let coarse_lane = if b.contains(x, y) {
+                b.first_lane + b.fragment_of(x, y)
+            } else {
+                b.first_lane
+            };
+            (block, b.weights(x, y), coarse_lane)
+        }))
+    }
+}
+
+/// Fixed-point screen position of a coarse sample (pixel coordinates).
+fn sample_fixed(s: Vec2) -> (i64, i64) {
+    (
+        (s.x * SUBPIXEL as f32).round() as i64,
+        (s.y * SUBPIXEL as f32).round() as i64,
+    )
+}
+
+/// Interpolated attributes at a coarse sample.
+pub(super) fn sample_attributes(ctx: &UnitContext, s: Vec2) -> LaneAttributes {
+    let (px, py) = sample_fixed(s);
+    ctx.attributes_at(px, py)
+}

@@ -1,0 +1,400 @@
+//! `multirate`: adaptive multi-rate shading of He, Gu and Fatahalian (2014).
+//!
+//! Coarse fragments come in blocks of four (a 2x2 block of coarse fragments covering 4x4
+//! pixels in COARSE2x2, 8x8 in COARSE4x4), emitted for every block with a covered sample.
+//! The coarse stage evaluates the lighting terms (diffuse, specular, shadow, local lights) at
+//! the block's four sample positions and runs the refinement predicates of §4; the fine stage
+//! runs per covered 2x2 quad, samples the albedo, resamples the coarse terms bilinearly and
+//! re-evaluates per pixel every effect the block refined. DYNAMIC4x4 shades 4x4 first and
+//! re-shades refined blocks at 2x2 (the repeated coarse work is counted).
+//!
+//! Refining every effect (threshold 0) recomputes all terms per pixel with the same code and
+//! summation order as `per-pixel`, so the image is bit-identical to the reference.
+
+mod block;
+mod config;
+mod issue;
+mod object_space;
+mod predicates;
+mod tile_pair_cache;
+
+use glam::{Vec2, Vec3, Vec4};
+
+use super::shading_cache::{CacheKey, ShadingCache};
+use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
+use crate::cost::{BlockSet, SimdPacker};
+use crate::cost_table::Block;
+use crate::memory::AccessLog;
+use crate::shader::{compose, Effects, LightTerm, LightingInputs};
+use block::{sample_attributes, CoarseBlock};
+pub use config::{CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds};
+use object_space::{CellBlock, LaneSource};
+use predicates::{effects_bits, NONE};
+
+pub struct Multirate(pub MultirateConfig);
+
+impl ShadingScheme for Multirate {
+    fn name(&self) -> &'static str {
+        match self.0.cache.map(|c| c.space) {
+            None => "multirate",
+            Some(CacheSpace::Screen) => "tile-pair-cache",
+            Some(CacheSpace::Patch) => "amfs",
+            Some(CacheSpace::Texture) => "texel",
+        }
+    }
+
+    fn edge_receiver_delta(&self) -> Option<f32> {
+        Some(self.0.thresholds.edge_delta)
+    }
+
+    fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob> {
+        Box::new(MultirateJob {
+            config: self.0,
+            lights,
+            simd_width,
+            coarse_packer: SimdPacker::new(simd_width, lights),
+            fine_packer: SimdPacker::new(simd_width, lights),
+            blocks: Vec::new(),
+            coarse_lanes: Vec::new(),
+            coarse_used: 0,
+            fine_lanes: Vec::new(),
+            fine_used: 0,
+            order: Vec::new(),
+            terms: vec![LightTerm::default(); lights],
+            cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
+            sequence: 0,
+            reuse_packer: SimdPacker::new(simd_width, lights),
+            cells: Vec::new(),
+            quad_params: Vec::new(),
+            quad_levels: Vec::new(),
+            sources: Vec::new(),
+        })
+    }
+}
+
+/// A fine lane's work, kept for SIMD packing once the unit's quads are shaded.
+struct FineLane {
+    blocks: BlockSet,
+    useful: bool,
+    pixel: u32,
+    /// Refinement bits of its block (the sort key of `TwoPhaseSorted`).
+    key: u8,
+    /// The coarse lane (fragment) this pixel belongs to (single-thread scheduling).
+    coarse_lane: usize,
+}
+
+/// A coarse lane's blocks and the pixel its cost is drawn at in the heat map.
+struct CoarseLane {
+    blocks: BlockSet,
+    pixel: u32,
+    /// Cache query and reuse-shader lanes are issued in the `reuse` stage.
+    reuse: bool,
+}
+
+struct MultirateJob {
+    config: MultirateConfig,
+    lights: usize,
+    simd_width: u32,
+    coarse_packer: SimdPacker,
+    fine_packer: SimdPacker,
+    blocks: Vec<CoarseBlock>,
+    /// Lane pools, reused across units (no per-pixel allocation); `*_used` are live.
+    coarse_lanes: Vec<CoarseLane>,
+    coarse_used: usize,
+    fine_lanes: Vec<FineLane>,
+    fine_used: usize,
+    order: Vec<usize>,
+    terms: Vec<LightTerm>,
+    cache: Option<(CacheConfig, ShadingCache)>,
+    /// Tile-pair sequence of the last unit (the cache is cleared when it changes).
+    sequence: u32,
+    reuse_packer: SimdPacker,
+    /// Object-space schemes: each block's cell, each quad's lane parameters and lattice
+    /// levels, and where each quad's lanes read their terms (the blocks are cells, not
+    /// screen squares).
+    cells: Vec<CellBlock>,
+    quad_params: Vec<[Vec2; 4]>,
+    quad_levels: Vec<[i32; 4]>,
+    sources: Vec<[LaneSource; 4]>,
+}
+
+impl SchemeJob for MultirateJob {
+    fn shade_unit(
+        &mut self,
+        ctx: &UnitContext,
+        quads: &[ShadeQuad],
+        colors: &mut Vec<[Vec4; 4]>,
+        acc: &mut Accounting,
+    ) {
+        self.coarse_used = 0;
+        self.fine_used = 0;
+        if ctx.sequence != self.sequence {
+            self.sequence = ctx.sequence;
+            if let Some((_, cache)) = self.cache.as_mut() {
+                cache.clear();
+            }
+        }
+        self.terms.resize(self.lights, LightTerm::default());
+        self.sources.clear();
+        match self.config.cache.map(|c| c.space) {
+            Some(space @ (CacheSpace::Patch | CacheSpace::Texture)) => {
+                self.shade_object_space(ctx, quads, space, acc.log)
+            }
+            _ => self.shade_screen_space(ctx, quads, acc.log),
+        }
+        for (index, quad) in quads.iter().enumerate() {
+            colors.push(self.shade_quad(ctx, index, quad, acc));
+        }
+        self.issue(acc);
+        if let Some((_, cache)) = self.cache.as_mut() {
+            acc.cache.add(&std::mem::take(&mut cache.counters));
+        }
+    }
+}
+
+impl MultirateJob {
+    /// Screen-space blocks (He et al., tile-pair cache): aligned squares of the coarse mode's
+    /// size; DYNAMIC4x4 re-shades refined 4x4 blocks at 2x2 (their first pass still counts).
+    fn shade_screen_space(&mut self, ctx: &UnitContext, quads: &[ShadeQuad], log: &mut AccessLog) {
+        let first = if self.config.mode == CoarseMode::Coarse2x2 {
+            4
+        } else {
+            8
+        };
+        let mut blocks = std::mem::take(&mut self.blocks);
+        blocks.clear();
+        Self::group(quads, first, None, &mut blocks);
+        for b in &mut blocks {
+            self.shade_block(ctx, b, log);
+        }
+        if self.config.mode == CoarseMode::Dynamic4x4 {
+            // Refined 4x4 blocks are re-shaded at 2x2; their first coarse pass still counts.
+            let mut kept = Vec::with_capacity(blocks.len());
+            for b in blocks.drain(..) {
+                if !b.refine.any() {
+                    kept.push(b);
+                    continue;
+                }
+                let mut finer = Vec::new();
+                Self::group(quads, 4, Some(&b), &mut finer);
+                for mut sub in finer {
+                    self.shade_block(ctx, &mut sub, log);
+                    kept.push(sub);
+                }
+            }
+            blocks = kept;
+        }
+        self.blocks = blocks;
+    }
+
+    /// Places the samples, evaluates the coarse terms and runs the predicates of one block.
+    fn shade_block(&mut self, ctx: &UnitContext, b: &mut CoarseBlock, log: &mut AccessLog) {
+        let cfg = self.config;
+        let (mut xmin, mut ymin, mut xmax, mut ymax) = (u32::MAX, u32::MAX, 0, 0);
+        for bit in 0..b.size * b.size {
+            if b.coverage & (1 << bit) != 0 {
+                let (x, y) = (bit % b.size, bit / b.size);
+                (xmin, ymin, xmax, ymax) = (xmin.min(x), ymin.min(y), xmax.max(x), ymax.max(y));
+            }
+        }
+        let (fx, fy) = (b.x0 as f32, b.y0 as f32);
+        // Small-triangle optimization: coverage inside one 2x2 region is shaded at its pixel
+        // centres, exactly like quad shading, and never refined.
+        let exact = cfg.small_triangle && xmax - xmin <= 1 && ymax - ymin <= 1;
+        let (xa, xb, ya, yb) = if exact {
+            let (qx, qy) = (xmin.min(b.size - 2), ymin.min(b.size - 2));
+            (
+                fx + qx as f32 + 0.5,
+                fx + qx as f32 + 1.5,
+                fy + qy as f32 + 0.5,
+                fy + qy as f32 + 1.5,
+            )
+        } else {
+            match cfg.sampling {
+                Sampling::StaticCenter => {
+                    let q = b.size as f32 / 4.0;
+                    (fx + q, fx + 3.0 * q, fy + q, fy + 3.0 * q)
+                }
+                Sampling::StaticCorner => {
+                    let e = b.size as f32 - 0.5;
+                    (fx + 0.5, fx + e, fy + 0.5, fy + e)
+                }
+                Sampling::CoverageBbox => (
+                    fx + xmin as f32 + 0.5,
+                    fx + xmax as f32 + 0.5,
+                    fy + ymin as f32 + 0.5,
+                    fy + ymax as f32 + 0.5,
+                ),
+            }
+        };
+        b.samples = [
+            Vec2::new(xa, ya),
+            Vec2::new(xb, ya),
+            Vec2::new(xa, yb),
+            Vec2::new(xb, yb),
+        ];
+        b.terms.clear();
+        b.terms.resize(4 * self.lights, LightTerm::default());
+        let mut positions = [Vec3::ZERO; 4];
+        let mut normals = [Vec3::ZERO; 4];
+        let half = b.size / 2;
+        // The coarse fragments' cost is drawn at their centre pixels in the heat map.
+        let pixels: [u32; 4] = std::array::from_fn(|i| {
+            let (cx, cy) = (
+                b.x0 + (i as u32 & 1) * half + half / 2,
+                b.y0 + (i as u32 >> 1) * half + half / 2,
+            );
+            ctx.pixel_id(cx.min(ctx.width - 1), cy.min(ctx.height - 1))
+        });
+        for (i, &s) in b.samples.iter().enumerate() {
+            let a = sample_attributes(ctx, s);
+            positions[i] = a.position;
+            normals[i] = a.normal;
+        }
+        // The block's own cache keys, computed once for the query and the store.
+        let keys: Option<[CacheKey; 4]> = self
+            .cache
+            .as_ref()
+            .filter(|_| !exact)
+            .map(|_| std::array::from_fn(|i| Self::key(b, i, ctx.view)));
+        if let Some(keys) = &keys {
+            if self.reuse_from_cache(ctx, b, keys, &positions, &normals, &pixels) {
+                return;
+            }
+        }
+        let n = self.lights;
+        for i in 0..4 {
+            let lane = self.shade_coarse_fragment(
+                ctx,
+                pixels[i],
+                positions[i],
+                normals[i],
+                &mut b.terms[i * n..(i + 1) * n],
+                log,
+            );
+            if i == 0 {
+                b.first_lane = lane;
+            }
+        }
+        b.refine = if exact {
+            NONE
+        } else {
+            self.predicates(ctx, b, &positions, &normals)
+        };
+        if let Some(keys) = &keys {
+            self.store_in_cache(ctx, b, keys, &positions, &normals);
+        }
+    }
+
+    /// Runs the coarse shader (every effect) at one point on a new coarse lane of `pixel`,
+    /// writing its light terms; returns the lane.
+    fn shade_coarse_fragment(
+        &mut self,
+        ctx: &UnitContext,
+        pixel: u32,
+        position: Vec3,
+        normal: Vec3,
+        terms: &mut [LightTerm],
+        log: &mut AccessLog,
+    ) -> usize {
+        let lane = self.coarse_lane(pixel, false);
+        ctx.env.light_terms(
+            &LightingInputs {
+                position,
+                normal,
+                eye: ctx.eye,
+                material: ctx.triangle.material,
+            },
+            Effects::ALL,
+            terms,
+            &mut self.coarse_lanes[lane].blocks,
+            log,
+        );
+        lane
+    }
+
+    fn coarse_lane(&mut self, pixel: u32, reuse: bool) -> usize {
+        if self.coarse_used == self.coarse_lanes.len() {
+            self.coarse_lanes.push(CoarseLane {
+                blocks: BlockSet::new(self.lights),
+                pixel,
+                reuse,
+            });
+        }
+        let lane = &mut self.coarse_lanes[self.coarse_used];
+        lane.blocks.clear();
+        lane.pixel = pixel;
+        lane.reuse = reuse;
+        self.coarse_used += 1;
+        self.coarse_used - 1
+    }
+
+    fn fine_lane(&mut self) -> usize {
+        if self.fine_used == self.fine_lanes.len() {
+            self.fine_lanes.push(FineLane {
+                blocks: BlockSet::new(self.lights),
+                useful: false,
+                pixel: u32::MAX,
+                key: 0,
+                coarse_lane: 0,
+            });
+        }
+        self.fine_lanes[self.fine_used].blocks.clear();
+        self.fine_used += 1;
+        self.fine_used - 1
+    }
+
+    /// Fine stage of one quad: albedo per pixel, coarse terms resampled, refined effects
+    /// recomputed; returns the four lane colours.
+    fn shade_quad(&mut self, ctx: &UnitContext, index: usize, quad: &ShadeQuad, acc: &mut Accounting) -> [Vec4; 4] {
+        let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
+        let duv_dx = lanes[1].uv - lanes[0].uv;
+        let duv_dy = lanes[2].uv - lanes[0].uv;
+        let Some(sources) = self.lane_sources(index, quad) else {
+            return [Vec4::ZERO; 4];
+        };
+        let material = ctx.triangle.material;
+        let mut out = [Vec4::ZERO; 4];
+        for (l, lane) in lanes.iter().enumerate() {
+            let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let (block, w, coarse_lane) = sources[l];
+            let b = &self.blocks[block];
+            let refine = b.refine;
+            let key = effects_bits(refine);
+            for (k, term) in self.terms.iter_mut().enumerate() {
+                let s = |i: usize| b.terms[i * self.lights + k];
+                let mix =
+                    |f: fn(&LightTerm) -> f32| w[0] * f(&s(0)) + w[1] * f(&s(1)) + w[2] * f(&s(2)) + w[3] * f(&s(3));
+                *term = LightTerm {
+                    scale: mix(|t| t.scale),
+                    diffuse: mix(|t| t.diffuse),
+                    specular: mix(|t| t.specular),
+                };
+            }
+            let f = self.fine_lane();
+            let lane_blocks = &mut self.fine_lanes[f].blocks;
+            lane_blocks.take(Block::Resample);
+            if refine.any() {
+                let inputs = LightingInputs {
+                    position: lane.position,
+                    normal: lane.normal,
+                    eye: ctx.eye,
+                    material,
+                };
+                ctx.env
+                    .light_terms(&inputs, refine, &mut self.terms, lane_blocks, acc.log);
+            }
+            let lighting = ctx.env.combine(&self.terms);
+            let albedo = ctx.env.albedo(material, lane.uv, duv_dx, duv_dy, lane_blocks, acc.log);
+            out[l] = compose(albedo, lighting, lane_blocks);
+            let useful = quad.lanes & (1 << l) != 0;
+            let pixel = ctx.pixel_id(x, y);
+            if useful && key != 0 && pixel != u32::MAX {
+                (acc.refinement)(pixel, key);
+            }
+            let lane = &mut self.fine_lanes[f];
+            (lane.useful, lane.pixel, lane.key, lane.coarse_lane) = (useful, pixel, key, coarse_lane);
+        }
+        out
+    }
+}
