@@ -193,63 +193,133 @@ impl StageCost {
     }
 }
 
-/// Shading cost split by stage (the tile-pair paper's FineInst / CoarseInst / ReuseInst).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// Stages and traffic classes every result reports, zero or not: results schema 1 had them
+/// as fixed fields. Any other counter appears only where something was spent on it.
+pub const ALWAYS_REPORTED_STAGES: [&str; 3] = ["fine", "coarse", "reuse"];
+pub const ALWAYS_REPORTED_TRAFFIC: [&str; 4] = ["depth_color", "indices", "triangle_data", "texture"];
+
+/// The stage names of `costs` in report order: the always-reported stages first, then the
+/// others alphabetically.
+pub fn stage_names<'a>(costs: impl IntoIterator<Item = &'a ShadingCost>) -> Vec<String> {
+    report_order(costs.into_iter().flat_map(|c| c.stages.keys()), &ALWAYS_REPORTED_STAGES)
+}
+
+/// The traffic class names of `traffic` in report order (as [`stage_names`]).
+pub fn traffic_names<'a>(traffic: impl IntoIterator<Item = &'a Traffic>) -> Vec<String> {
+    report_order(
+        traffic.into_iter().flat_map(|t| t.classes.keys()),
+        &ALWAYS_REPORTED_TRAFFIC,
+    )
+}
+
+fn report_order<'a>(names: impl Iterator<Item = &'a String>, first: &[&str]) -> Vec<String> {
+    let mut out: Vec<String> = first.iter().map(|s| s.to_string()).collect();
+    let rest: std::collections::BTreeSet<&String> = names.filter(|n| !first.contains(&n.as_str())).collect();
+    out.extend(rest.into_iter().cloned());
+    out
+}
+
+/// Shading cost by stage name (the tile-pair paper's FineInst / CoarseInst / ReuseInst, and
+/// whatever stages later schemes register beside the code that spends them).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ShadingCost {
     pub simd_width: u32,
-    pub fine: StageCost,
-    pub coarse: StageCost,
-    pub reuse: StageCost,
+    #[serde(flatten)]
+    pub stages: BTreeMap<String, StageCost>,
+}
+
+impl Default for ShadingCost {
+    fn default() -> Self {
+        ShadingCost::new(0)
+    }
 }
 
 impl ShadingCost {
     pub fn new(simd_width: u32) -> ShadingCost {
         ShadingCost {
             simd_width,
-            ..Default::default()
+            stages: ALWAYS_REPORTED_STAGES
+                .iter()
+                .map(|s| (s.to_string(), StageCost::default()))
+                .collect(),
         }
     }
 
+    /// The counters of stage `name`, created on first use.
+    #[inline]
+    pub fn stage_mut(&mut self, name: &str) -> &mut StageCost {
+        if !self.stages.contains_key(name) {
+            self.stages.insert(name.to_string(), StageCost::default());
+        }
+        self.stages.get_mut(name).expect("inserted above")
+    }
+
+    /// The counters of stage `name` (zero when nothing was spent on it).
+    pub fn stage(&self, name: &str) -> StageCost {
+        self.stages.get(name).copied().unwrap_or_default()
+    }
+
     pub fn issued(&self) -> u64 {
-        self.fine.issued() + self.coarse.issued() + self.reuse.issued()
+        self.stages.values().map(StageCost::issued).sum()
     }
 
     pub fn add(&mut self, o: &ShadingCost) {
         self.simd_width = self.simd_width.max(o.simd_width);
-        self.fine.add(&o.fine);
-        self.coarse.add(&o.coarse);
-        self.reuse.add(&o.reuse);
+        for (name, stage) in &o.stages {
+            self.stage_mut(name).add(stage);
+        }
     }
 
     /// Useful lane instructions over issued lane slots.
     pub fn simd_utilization(&self) -> f64 {
-        let useful = [self.fine, self.coarse, self.reuse]
-            .iter()
+        let useful = self
+            .stages
+            .values()
             .map(|s| s.useful_lane_alu + s.useful_lane_tex)
             .sum::<u64>();
         useful as f64 / (self.issued() as f64 * self.simd_width.max(1) as f64).max(1.0)
     }
 }
 
-/// DRAM bytes per traffic class.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// DRAM bytes by traffic class name.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Traffic {
-    pub depth_color: u64,
-    pub indices: u64,
-    pub triangle_data: u64,
-    pub texture: u64,
+    #[serde(flatten)]
+    pub classes: BTreeMap<String, u64>,
+}
+
+impl Default for Traffic {
+    fn default() -> Self {
+        Traffic {
+            classes: ALWAYS_REPORTED_TRAFFIC.iter().map(|c| (c.to_string(), 0)).collect(),
+        }
+    }
 }
 
 impl Traffic {
+    /// Adds `bytes` to class `name`.
+    pub fn add_bytes(&mut self, name: &str, bytes: u64) {
+        match self.classes.get_mut(name) {
+            Some(b) => *b += bytes,
+            None => {
+                self.classes.insert(name.to_string(), bytes);
+            }
+        }
+    }
+
+    /// Bytes of class `name` (zero when none).
+    pub fn bytes(&self, name: &str) -> u64 {
+        self.classes.get(name).copied().unwrap_or(0)
+    }
+
     pub fn total(&self) -> u64 {
-        self.depth_color + self.indices + self.triangle_data + self.texture
+        self.classes.values().sum()
     }
 
     pub fn add(&mut self, o: &Traffic) {
-        self.depth_color += o.depth_color;
-        self.indices += o.indices;
-        self.triangle_data += o.triangle_data;
-        self.texture += o.texture;
+        for (name, &bytes) in &o.classes {
+            self.add_bytes(name, bytes);
+        }
     }
 }
 

@@ -6,6 +6,10 @@ use shadetrace_formats::results::StageCost;
 
 use crate::cost_table::{Block, BlockCost};
 
+/// Stage of shading at pixel rate (every scheme's per-pixel lanes; FineInst in the tile-pair
+/// paper).
+pub const FINE: &str = "fine";
+
 /// Per-light block flags.
 pub const LIGHT_DIFFUSE: u8 = 1;
 pub const LIGHT_SPECULAR: u8 = 2;

@@ -145,7 +145,7 @@ pub fn replay(
                 eye: Eye::BOTH[v].name().to_string(),
                 vertex: view.vertex,
                 raster: view.raster,
-                cost: view.cost,
+                cost: view.cost.clone(),
                 relative_cost,
                 quality,
                 refined_pixels,

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use glam::Vec4;
-use shadetrace_replay::cost::{BlockSet, SimdPacker};
+use shadetrace_replay::cost::{BlockSet, SimdPacker, FINE};
 use shadetrace_replay::pipeline::{run_frame, TileBuffer, NO_PRIMITIVE};
 use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
@@ -60,8 +60,13 @@ impl DeferredJob {
             .env
             .albedo(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
         let color = compose(albedo, lighting, &mut self.blocks);
-        self.packer
-            .lane(&self.blocks, true, ctx.pixel_id(x, y), &mut acc.cost.fine, acc.heat);
+        self.packer.lane(
+            &self.blocks,
+            true,
+            ctx.pixel_id(x, y),
+            acc.cost.stage_mut(FINE),
+            acc.heat,
+        );
         color
     }
 }
@@ -94,7 +99,7 @@ impl SchemeJob for DeferredJob {
                 }
             }
         }
-        self.packer.flush(&mut acc.cost.fine, acc.heat);
+        self.packer.flush(acc.cost.stage_mut(FINE), acc.heat);
     }
 }
 
@@ -121,9 +126,14 @@ fn deferred_example_equals_forward_bit_for_bit() {
                     scheduler.name()
                 );
                 let (f, d) = (&forward.views[v], &deferred.views[v]);
-                assert!(d.cost.fine.issued() > 0);
+                assert!(d.cost.stage(FINE).issued() > 0);
                 // Deferred shading runs no helper lanes and never shades hidden fragments.
-                assert!(d.cost.fine.issued() < f.cost.fine.issued(), "{} < {}", d.cost.fine.issued(), f.cost.fine.issued());
+                assert!(
+                    d.cost.stage(FINE).issued() < f.cost.stage(FINE).issued(),
+                    "{} < {}",
+                    d.cost.stage(FINE).issued(),
+                    f.cost.stage(FINE).issued()
+                );
                 assert_eq!(d.raster.units, f.raster.units);
             }
         }

@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::images::{heat_map, robust_max, side_by_side};
 use shadetrace_replay::scheme::{REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
 use shadetrace_replay::{load_trace, replay, Preset, RunOutput, REFERENCE_PRESET};
@@ -113,17 +114,19 @@ pub fn write_outputs(dir: &Path, output: &RunOutput, images: bool) -> Result<(),
 fn print_summary(output: &RunOutput) {
     let r = &output.result;
     let t = &r.total;
+    let stages: Vec<String> = stage_names([&t.cost])
+        .iter()
+        .map(|s| format!("{s} {}", t.cost.stage(s).issued()))
+        .collect();
     println!(
-        "{} on {} ({}x{} per eye, {} frames): {} issued instructions (fine {}, coarse {}, reuse {}), SIMD utilization {:.1}%",
+        "{} on {} ({}x{} per eye, {} frames): {} issued instructions ({}), SIMD utilization {:.1}%",
         r.preset,
         r.trace_name,
         r.eye_width,
         r.eye_height,
         r.frames.len(),
         t.cost.issued(),
-        t.cost.fine.issued(),
-        t.cost.coarse.issued(),
-        t.cost.reuse.issued(),
+        stages.join(", "),
         100.0 * t.cost.simd_utilization()
     );
     if let Some(rel) = t.relative_cost {
@@ -133,13 +136,10 @@ fn print_summary(output: &RunOutput) {
         println!("min SSIM {ssim:.6}");
     }
     let tr = &t.traffic;
-    println!(
-        "DRAM traffic: depth+color {} B, indices {} B, triangle data {} B, texture {} B (total {} B)",
-        tr.depth_color,
-        tr.indices,
-        tr.triangle_data,
-        tr.texture,
-        tr.total()
-    );
+    let classes: Vec<String> = traffic_names([tr])
+        .iter()
+        .map(|c| format!("{} {} B", c.replace('_', " "), tr.bytes(c)))
+        .collect();
+    println!("DRAM traffic: {} (total {} B)", classes.join(", "), tr.total());
     println!("{:.2} s, {:.2} Mpixels/s", r.timing.wall_s, r.timing.pixels_per_s / 1e6);
 }

@@ -3,61 +3,80 @@
 
 use std::path::Path;
 
-use shadetrace_formats::results::{ListStats, RunResult};
+use shadetrace_formats::results::{stage_names, traffic_names, ListStats, RunResult};
 
 use crate::output::write_atomically;
 
-const CSV_HEADER: [&str; 23] = [
-    "preset",
-    "scheduler",
-    "scheme",
-    "frames",
-    "issued",
-    "fine_issued",
-    "coarse_issued",
-    "reuse_issued",
-    "relative_cost_pct",
-    "simd_utilization_pct",
-    "min_ssim",
-    "min_psnr_db",
-    "depth_color_bytes",
-    "indices_bytes",
-    "triangle_data_bytes",
-    "texture_bytes",
-    "total_bytes",
-    "tile_list_entries",
-    "tile_list_bytes",
-    "tile_pair_entries",
-    "tile_pair_list_bytes",
-    "wall_s",
-    "mpixels_per_s",
-];
+/// The columns of a set of runs: fixed ones, one per shading stage and one per traffic class
+/// that any run reports (so a new stage or class appears without edits here).
+struct Columns {
+    stages: Vec<String>,
+    classes: Vec<String>,
+}
 
-const TABLE_HEADER: [&str; 23] = [
-    "preset",
-    "scheduler",
-    "scheme",
-    "frames",
-    "issued",
-    "fine",
-    "coarse",
-    "reuse",
-    "rel.cost",
-    "SIMD",
-    "min SSIM",
-    "min PSNR",
-    "d+c KiB",
-    "idx KiB",
-    "tri KiB",
-    "tex KiB",
-    "total KiB",
-    "tile ent.",
-    "tile KiB",
-    "pair ent.",
-    "pair KiB",
-    "wall s",
-    "Mpix/s",
-];
+impl Columns {
+    fn of(runs: &[&RunResult]) -> Columns {
+        Columns {
+            stages: stage_names(runs.iter().map(|r| &r.total.cost)),
+            classes: traffic_names(runs.iter().map(|r| &r.total.traffic)),
+        }
+    }
+
+    fn csv_header(&self) -> Vec<String> {
+        let mut h: Vec<String> = ["preset", "scheduler", "scheme", "frames", "issued"]
+            .map(String::from)
+            .to_vec();
+        h.extend(self.stages.iter().map(|s| format!("{s}_issued")));
+        h.extend(["relative_cost_pct", "simd_utilization_pct", "min_ssim", "min_psnr_db"].map(String::from));
+        h.extend(self.classes.iter().map(|c| format!("{c}_bytes")));
+        h.extend(
+            [
+                "total_bytes",
+                "tile_list_entries",
+                "tile_list_bytes",
+                "tile_pair_entries",
+                "tile_pair_list_bytes",
+                "wall_s",
+                "mpixels_per_s",
+            ]
+            .map(String::from),
+        );
+        h
+    }
+
+    fn table_header(&self) -> Vec<String> {
+        let mut h: Vec<String> = ["preset", "scheduler", "scheme", "frames", "issued"]
+            .map(String::from)
+            .to_vec();
+        h.extend(self.stages.iter().cloned());
+        h.extend(["rel.cost", "SIMD", "min SSIM", "min PSNR"].map(String::from));
+        h.extend(self.classes.iter().map(|c| format!("{} KiB", short_class(c))));
+        h.extend(
+            [
+                "total KiB",
+                "tile ent.",
+                "tile KiB",
+                "pair ent.",
+                "pair KiB",
+                "wall s",
+                "Mpix/s",
+            ]
+            .map(String::from),
+        );
+        h
+    }
+}
+
+/// Short table labels of the common traffic classes (others print as named).
+fn short_class(class: &str) -> &str {
+    match class {
+        "depth_color" => "d+c",
+        "indices" => "idx",
+        "triangle_data" => "tri",
+        "texture" => "tex",
+        other => other,
+    }
+}
 
 /// Columns printed left-aligned (names); the rest are numbers, right-aligned.
 const TEXT_COLUMNS: usize = 3;
@@ -66,10 +85,11 @@ const TEXT_COLUMNS: usize = 3;
 pub fn write_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
     let fail = |e: csv::Error| format!("{}: {e}", path.display());
     write_atomically(path, |w| {
+        let columns = Columns::of(runs);
         let mut csv = csv::Writer::from_writer(w);
-        csv.write_record(CSV_HEADER).map_err(fail)?;
+        csv.write_record(columns.csv_header()).map_err(fail)?;
         for r in runs {
-            csv.write_record(csv_row(r)).map_err(fail)?;
+            csv.write_record(csv_row(r, &columns)).map_err(fail)?;
         }
         csv.flush().map_err(|e| format!("{}: {e}", path.display()))
     })
@@ -77,9 +97,11 @@ pub fn write_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
 
 /// The summary as an aligned text table (header line, then one line per run).
 pub fn table(runs: &[&RunResult]) -> String {
-    let rows: Vec<Vec<String>> = runs.iter().map(|r| table_row(r)).collect();
-    let widths: Vec<usize> = (0..TABLE_HEADER.len())
-        .map(|c| rows.iter().map(|r| r[c].len()).fold(TABLE_HEADER[c].len(), usize::max))
+    let columns = Columns::of(runs);
+    let header = columns.table_header();
+    let rows: Vec<Vec<String>> = runs.iter().map(|r| table_row(r, &columns)).collect();
+    let widths: Vec<usize> = (0..header.len())
+        .map(|c| rows.iter().map(|r| r[c].len()).fold(header[c].len(), usize::max))
         .collect();
     let line = |cells: &[String]| {
         let padded: Vec<String> = cells
@@ -96,7 +118,7 @@ pub fn table(runs: &[&RunResult]) -> String {
             .collect();
         padded.join("  ").trim_end().to_string()
     };
-    let mut out = line(&TABLE_HEADER.map(String::from));
+    let mut out = line(&header);
     for row in &rows {
         out.push('\n');
         out.push_str(&line(row));
@@ -134,27 +156,26 @@ fn opt(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
     v.map_or_else(String::new, f)
 }
 
-fn csv_row(r: &RunResult) -> Vec<String> {
+fn csv_row(r: &RunResult, columns: &Columns) -> Vec<String> {
     let t = &r.total;
     let tr = &t.traffic;
     let l = lists(r);
-    vec![
+    let mut row = vec![
         r.preset.clone(),
         r.scheduler.clone(),
         r.scheme.clone(),
         r.frames.len().to_string(),
         t.cost.issued().to_string(),
-        t.cost.fine.issued().to_string(),
-        t.cost.coarse.issued().to_string(),
-        t.cost.reuse.issued().to_string(),
+    ];
+    row.extend(columns.stages.iter().map(|s| t.cost.stage(s).issued().to_string()));
+    row.extend([
         opt(t.relative_cost, |c| (100.0 * c).to_string()),
         (100.0 * t.cost.simd_utilization()).to_string(),
         opt(t.min_ssim, |s| s.to_string()),
         opt(min_psnr(r), |p| p.to_string()),
-        tr.depth_color.to_string(),
-        tr.indices.to_string(),
-        tr.triangle_data.to_string(),
-        tr.texture.to_string(),
+    ]);
+    row.extend(columns.classes.iter().map(|c| tr.bytes(c).to_string()));
+    row.extend([
         tr.total().to_string(),
         l.tile_entries.to_string(),
         l.tile_list_bytes.to_string(),
@@ -162,23 +183,24 @@ fn csv_row(r: &RunResult) -> Vec<String> {
         l.tile_pair_list_bytes.to_string(),
         r.timing.wall_s.to_string(),
         (r.timing.pixels_per_s / 1e6).to_string(),
-    ]
+    ]);
+    row
 }
 
-fn table_row(r: &RunResult) -> Vec<String> {
+fn table_row(r: &RunResult, columns: &Columns) -> Vec<String> {
     let t = &r.total;
     let tr = &t.traffic;
     let l = lists(r);
     let kib = |bytes: u64| format!("{:.1}", bytes as f64 / 1024.0);
-    vec![
+    let mut row = vec![
         r.preset.clone(),
         r.scheduler.clone(),
         r.scheme.clone(),
         r.frames.len().to_string(),
         t.cost.issued().to_string(),
-        t.cost.fine.issued().to_string(),
-        t.cost.coarse.issued().to_string(),
-        t.cost.reuse.issued().to_string(),
+    ];
+    row.extend(columns.stages.iter().map(|s| t.cost.stage(s).issued().to_string()));
+    row.extend([
         t.relative_cost
             .map_or_else(|| "-".to_string(), |c| format!("{:.2}%", 100.0 * c)),
         format!("{:.1}%", 100.0 * t.cost.simd_utilization()),
@@ -188,10 +210,9 @@ fn table_row(r: &RunResult) -> Vec<String> {
             None if measured(r) => "inf".to_string(),
             None => "-".to_string(),
         },
-        kib(tr.depth_color),
-        kib(tr.indices),
-        kib(tr.triangle_data),
-        kib(tr.texture),
+    ]);
+    row.extend(columns.classes.iter().map(|c| kib(tr.bytes(c))));
+    row.extend([
         kib(tr.total()),
         l.tile_entries.to_string(),
         kib(l.tile_list_bytes),
@@ -199,5 +220,6 @@ fn table_row(r: &RunResult) -> Vec<String> {
         kib(l.tile_pair_list_bytes),
         format!("{:.2}", r.timing.wall_s),
         format!("{:.2}", r.timing.pixels_per_s / 1e6),
-    ]
+    ]);
+    row
 }

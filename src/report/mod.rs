@@ -8,6 +8,7 @@ pub mod svg;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image};
 use shadetrace_replay::{LoadedTrace, RunOutput};
 
@@ -149,21 +150,19 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
     let _ = writeln!(h, "<dt>features</dt><dd>{}</dd></dl>", escape(&t.features));
     render_table(h, section);
 
-    let bars: Vec<(String, [u64; 4])> = section
+    let classes = traffic_names(section.runs.iter().map(|run| &run.result.total.traffic));
+    let bars: Vec<(String, Vec<u64>)> = section
         .runs
         .iter()
         .map(|run| {
             let tr = &run.result.total.traffic;
-            (
-                run.result.preset.clone(),
-                [tr.depth_color, tr.indices, tr.triangle_data, tr.texture],
-            )
+            (run.result.preset.clone(), classes.iter().map(|c| tr.bytes(c)).collect())
         })
         .collect();
     let _ = write!(
         h,
         "<h3>DRAM traffic per class</h3>\n<figure>{}</figure>\n",
-        svg::traffic_bars(&bars)
+        svg::traffic_bars(&classes, &bars)
     );
 
     let points: Vec<(String, f64, f64)> = section
@@ -227,15 +226,19 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
 }
 
 fn render_table(h: &mut String, section: &ReportSection) {
-    h.push_str(
-        "<table>\n<thead><tr><th>preset</th><th>scheduler</th><th>scheme</th><th>relative cost</th>\
-         <th>fine instr.</th><th>coarse instr.</th><th>reuse instr.</th><th>SIMD utilization</th><th>min SSIM</th>",
-    );
-    for (class, colour) in svg::TRAFFIC_CLASSES {
+    let stages = stage_names(section.runs.iter().map(|run| &run.result.total.cost));
+    let classes = traffic_names(section.runs.iter().map(|run| &run.result.total.traffic));
+    h.push_str("<table>\n<thead><tr><th>preset</th><th>scheduler</th><th>scheme</th><th>relative cost</th>");
+    for stage in &stages {
+        let _ = write!(h, "<th>{} instr.</th>", escape(stage));
+    }
+    h.push_str("<th>SIMD utilization</th><th>min SSIM</th>");
+    for (i, class) in classes.iter().enumerate() {
         let _ = write!(
             h,
-            "<th><span class=\"swatch\" style=\"background:{colour}\"></span>{} KiB</th>",
-            escape(class)
+            "<th><span class=\"swatch\" style=\"background:{}\"></span>{} KiB</th>",
+            svg::class_colour(i),
+            escape(&svg::class_label(class))
         );
     }
     h.push_str("<th>total KiB</th></tr></thead>\n<tbody>\n");
@@ -245,18 +248,24 @@ fn render_table(h: &mut String, section: &ReportSection) {
         let tr = &t.traffic;
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>{}</td>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
             escape(&r.preset),
             escape(&r.scheduler),
             escape(&r.scheme),
-            t.relative_cost.map_or("-".to_string(), |c| format!("{:.2}%", 100.0 * c)),
-            group_digits(t.cost.fine.issued()),
-            group_digits(t.cost.coarse.issued()),
-            group_digits(t.cost.reuse.issued()),
+            t.relative_cost
+                .map_or("-".to_string(), |c| format!("{:.2}%", 100.0 * c)),
+        );
+        for stage in &stages {
+            let _ = write!(h, "<td>{}</td>", group_digits(t.cost.stage(stage).issued()));
+        }
+        let _ = write!(
+            h,
+            "<td>{:.1}%</td><td>{}</td>",
             100.0 * t.cost.simd_utilization(),
             t.min_ssim.map_or("-".to_string(), |s| format!("{s:.6}"))
         );
-        for bytes in [tr.depth_color, tr.indices, tr.triangle_data, tr.texture, tr.total()] {
+        let bytes = classes.iter().map(|c| tr.bytes(c)).chain([tr.total()]);
+        for bytes in bytes {
             let _ = write!(h, "<td>{:.1}</td>", bytes as f64 / 1024.0);
         }
         h.push_str("</tr>\n");

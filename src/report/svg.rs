@@ -6,21 +6,28 @@ use std::fmt::Write;
 
 use super::escape;
 
-/// Traffic classes in DESIGN.md §5 order, with Okabe-Ito colours (readable by colour-blind
-/// viewers).
-pub const TRAFFIC_CLASSES: [(&str, &str); 4] = [
-    ("depth + color", "#0072B2"),
-    ("indices", "#E69F00"),
-    ("triangle data", "#009E73"),
-    ("texture", "#CC79A7"),
+/// Okabe-Ito colours (readable by colour-blind viewers), one per traffic class in report
+/// order, repeating past eight classes.
+const PALETTE: [&str; 8] = [
+    "#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442", "#000000",
 ];
+
+/// The colour of the `i`-th traffic class.
+pub fn class_colour(i: usize) -> &'static str {
+    PALETTE[i % PALETTE.len()]
+}
+
+/// A class name as a label (`triangle_data` -> `triangle data`).
+pub fn class_label(class: &str) -> String {
+    class.replace('_', " ")
+}
 
 const FONT: &str = r#"font-family="sans-serif" font-size="12""#;
 /// Rough advance of a 12 px sans-serif character, to size the label column.
 const CHAR_WIDTH: f64 = 7.0;
 
-/// One stacked bar per run: `(label, bytes per class in TRAFFIC_CLASSES order)`.
-pub fn traffic_bars(bars: &[(String, [u64; 4])]) -> String {
+/// One stacked bar per run: `(label, bytes per class in `classes` order)`.
+pub fn traffic_bars(classes: &[String], bars: &[(String, Vec<u64>)]) -> String {
     let label_width = bars
         .iter()
         .map(|(l, _)| l.chars().count() as f64 * CHAR_WIDTH + 12.0)
@@ -37,12 +44,13 @@ pub fn traffic_bars(bars: &[(String, [u64; 4])]) -> String {
 
     let mut s = svg_open(width, height, "DRAM traffic per class and run (stacked bars)");
     let mut lx = label_width;
-    for (name, colour) in TRAFFIC_CLASSES {
+    for (i, class) in classes.iter().enumerate() {
+        let (name, colour) = (class_label(class), class_colour(i));
         let _ = write!(
             s,
             r#"<rect x="{lx:.1}" y="6" width="12" height="12" fill="{colour}"/><text x="{:.1}" y="16" {FONT}>{}</text>"#,
             lx + 16.0,
-            escape(name)
+            escape(&name)
         );
         lx += 16.0 + name.len() as f64 * CHAR_WIDTH + 18.0;
     }
@@ -62,7 +70,7 @@ pub fn traffic_bars(bars: &[(String, [u64; 4])]) -> String {
         label_width + plot_width / 2.0,
         height - 3.0
     );
-    for (i, (label, classes)) in bars.iter().enumerate() {
+    for (i, (label, values)) in bars.iter().enumerate() {
         let y = legend_height + i as f64 * (bar_height + gap) + gap / 2.0;
         let _ = write!(
             s,
@@ -72,14 +80,15 @@ pub fn traffic_bars(bars: &[(String, [u64; 4])]) -> String {
             escape(label)
         );
         let mut start = 0u64;
-        for (&bytes, (class, colour)) in classes.iter().zip(TRAFFIC_CLASSES) {
+        for (i, (&bytes, class)) in values.iter().zip(classes).enumerate() {
+            let (class, colour) = (class_label(class), class_colour(i));
             let (x0, x1) = (x_of(start as f64), x_of((start + bytes) as f64));
             let _ = write!(
                 s,
                 r#"<rect x="{x0:.2}" y="{y:.1}" width="{:.2}" height="{bar_height}" fill="{colour}"><title>{}: {} {bytes} bytes</title></rect>"#,
                 x1 - x0,
                 escape(label),
-                escape(class)
+                escape(&class)
             );
             start += bytes;
         }
@@ -234,10 +243,13 @@ mod tests {
 
     #[test]
     fn plots_escape_labels_and_survive_empty_input() {
-        let bars = traffic_bars(&[("a<b".to_string(), [1, 2, 3, 4])]);
+        let classes: Vec<String> = ["depth_color", "indices", "triangle_data", "texture"]
+            .map(String::from)
+            .to_vec();
+        let bars = traffic_bars(&classes, &[("a<b".to_string(), vec![1, 2, 3, 4])]);
         assert!(bars.starts_with("<svg") && bars.ends_with("</svg>"));
         assert!(bars.contains("a&lt;b") && !bars.contains("a<b"));
-        assert!(traffic_bars(&[]).ends_with("</svg>"));
+        assert!(traffic_bars(&classes, &[]).ends_with("</svg>"));
         let scatter = cost_quality_scatter(&[
             ("x&y".to_string(), 100.0, 1.0),
             ("z".to_string(), 100.0, 1.0),

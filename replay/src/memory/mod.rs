@@ -1,5 +1,5 @@
 //! The memory model: set-associative LRU caches with 256-byte lines in front of DRAM, and
-//! the DRAM bytes per traffic class (DESIGN.md §5).
+//! the DRAM bytes per traffic class (ARCHITECTURE.md, Definitions).
 //!
 //! Work units record the cache lines they touch in an [`AccessLog`] while they run (in
 //! parallel); the caches then replay all logs sequentially in the order the scheduler
@@ -12,6 +12,11 @@ use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};
 
 pub const LINE_BYTES: u64 = 256;
+
+/// Traffic classes of the caches below (the names results report them under).
+pub const DEPTH_COLOR: &str = "depth_color";
+pub const TRIANGLE_DATA: &str = "triangle_data";
+pub const TEXTURE: &str = "texture";
 /// Associativity of every cache (fewer ways when a cache has fewer lines).
 const WAYS: usize = 4;
 /// Depth is compressed 4x and colour 2x on their way to DRAM (Seiler et al., as in the
@@ -209,13 +214,13 @@ pub fn simulate(sizes: CacheSizes, logs: &[&AccessLog]) -> (Traffic, CacheReport
             )
         },
     );
-    let traffic = Traffic {
-        depth_color: (depth.0 + depth.1) * LINE_BYTES / DEPTH_COMPRESSION
-            + (color.0 + color.1) * LINE_BYTES / COLOR_COMPRESSION,
-        indices: 0,
-        triangle_data: (tri.0 + tri.1) * LINE_BYTES,
-        texture: (tex.0 + tex.1) * LINE_BYTES,
-    };
+    let mut traffic = Traffic::default();
+    traffic.add_bytes(
+        DEPTH_COLOR,
+        (depth.0 + depth.1) * LINE_BYTES / DEPTH_COMPRESSION + (color.0 + color.1) * LINE_BYTES / COLOR_COMPRESSION,
+    );
+    traffic.add_bytes(TRIANGLE_DATA, (tri.0 + tri.1) * LINE_BYTES);
+    traffic.add_bytes(TEXTURE, (tex.0 + tex.1) * LINE_BYTES);
     let report = CacheReport {
         depth: depth.2,
         color: color.2,
@@ -265,13 +270,13 @@ mod tests {
         assert_eq!(report.depth.misses, 3);
         assert_eq!(report.depth.cleared_fills, 2);
         assert_eq!(report.depth.writebacks, 1);
-        assert_eq!(traffic.depth_color, 2 * LINE_BYTES / DEPTH_COMPRESSION);
+        assert_eq!(traffic.bytes(DEPTH_COLOR), 2 * LINE_BYTES / DEPTH_COMPRESSION);
         let t = log(&[
             (Stream::Texture, 1, false),
             (Stream::Texture, 1, false),
             (Stream::Texture, 2, false),
         ]);
         let (traffic, _) = simulate(sizes, &[&t]);
-        assert_eq!(traffic.texture, 2 * LINE_BYTES);
+        assert_eq!(traffic.bytes(TEXTURE), 2 * LINE_BYTES);
     }
 }

@@ -63,18 +63,16 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     let mut out = JobOutput {
         logs: Vec::with_capacity(job.commands.len()),
         raster: [RasterStats::default(); 2],
-        cost: [ShadingCost::new(ctx.simd_width); 2],
+        cost: [ShadingCost::new(ctx.simd_width), ShadingCost::new(ctx.simd_width)],
         tiles: Vec::new(),
         heat: BTreeMap::new(),
         refinement: BTreeMap::new(),
         cache: [ShadingCacheStats::default(); 2],
     };
     let mut scratch = Scratch::default();
-    let mut sequence = 0u32;
     for (index, command) in job.commands.iter().enumerate() {
         let log = match *command {
             Command::BeginSequence => {
-                sequence += 1;
                 scheme_job.begin_sequence();
                 continue;
             }
@@ -82,16 +80,7 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
                 let buffer = buffers.entry((unit.view, unit.tile)).or_insert_with(|| {
                     TileBuffer::new(unit.view, unit.tile, ctx.grid.rect(unit.tile), ctx.offsets.len())
                 });
-                geometry_command(
-                    ctx,
-                    command,
-                    unit,
-                    sequence,
-                    buffer,
-                    scheme_job.as_mut(),
-                    &mut scratch,
-                    &mut out,
-                )
+                geometry_command(ctx, command, unit, buffer, scheme_job.as_mut(), &mut scratch, &mut out)
             }
             Command::ShadeTile { view, tile } => match buffers.get_mut(&(view, tile)) {
                 Some(buffer) => shade_tile(ctx, buffer, scheme_job.as_mut(), &mut out),
@@ -110,7 +99,6 @@ fn geometry_command(
     ctx: &JobContext,
     command: &Command,
     unit: Unit,
-    sequence: u32,
     buffer: &mut TileBuffer,
     scheme_job: &mut dyn SchemeJob,
     scratch: &mut Scratch,
@@ -201,7 +189,6 @@ fn geometry_command(
             eye: ctx.eyes[v],
             view_projections: ctx.view_projections,
             eyes: ctx.eyes,
-            sequence,
             width: ctx.grid.width,
             height: ctx.grid.height,
             setup,

@@ -22,10 +22,10 @@ use shadetrace_formats::{Eye, Frame, LightKind, Meta, Scene};
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
 use crate::geometry::FrameGeometry;
-use crate::memory::{simulate, AccessLog, CacheSizes, FramebufferLayout};
+use crate::memory::{simulate, AccessLog, CacheSizes, FramebufferLayout, TRIANGLE_DATA};
 use crate::options::ReplayOptions;
 use crate::raster::sample_offsets;
-use crate::schedule::{ScheduleInput, Scheduler};
+use crate::schedule::{ScheduleInput, Scheduler, INDICES};
 use crate::scheme::{Passes, ShadingScheme};
 use crate::shader::{ShaderEnv, ShadingLight};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
@@ -182,9 +182,9 @@ pub fn run_frame(
         texture: opts.texture_cache_kb as u64 * 1024,
     };
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs);
-    traffic.indices += schedule.lists.index_bytes;
+    traffic.add_bytes(INDICES, schedule.lists.index_bytes);
     if scheduler.stores_vertex_output() {
-        traffic.triangle_data += geometry.positions.len() as u64 * VERTEX_BYTES;
+        traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
     }
     let [left, right] = views;
     let views =

@@ -32,6 +32,9 @@ pub struct Schedule {
     pub lists: ListTraffic,
 }
 
+/// Traffic class of the binning lists, written while binning and read while rasterizing.
+pub const INDICES: &str = "indices";
+
 /// Index-list traffic and statistics of a schedule.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ListTraffic {

@@ -36,8 +36,6 @@ pub struct UnitContext<'a> {
     /// Both views' world-to-clip matrices and eyes (cross-view reuse projects into the other).
     pub view_projections: [Mat4; 2],
     pub eyes: [Vec3; 2],
-    /// The unit's tile-pair sequence (0 outside any).
-    pub sequence: u32,
     pub width: u32,
     pub height: u32,
     pub setup: &'a SetupTriangle,
@@ -166,7 +164,6 @@ impl<'a> TileContext<'a> {
             eye: self.eye,
             view_projections: self.view_projections,
             eyes: self.eyes,
-            sequence: 0,
             width: self.width,
             height: self.height,
             setup,

@@ -4,7 +4,7 @@
 use glam::Vec4;
 
 use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
-use crate::cost::{BlockSet, SimdPacker};
+use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::shader::{compose, LightingInputs};
 
 pub struct PerPixel;
@@ -36,6 +36,7 @@ impl SchemeJob for PerPixelJob {
         acc: &mut Accounting,
     ) {
         let material = ctx.triangle.material;
+        let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
             let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
             let duv_dx = lanes[1].uv - lanes[0].uv;
@@ -60,10 +61,10 @@ impl SchemeJob for PerPixelJob {
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 let useful = quad.lanes & (1 << l) != 0;
                 self.packer
-                    .lane(&self.blocks, useful, ctx.pixel_id(x, y), &mut acc.cost.fine, acc.heat);
+                    .lane(&self.blocks, useful, ctx.pixel_id(x, y), fine, acc.heat);
             }
             colors.push(out);
         }
-        self.packer.flush(&mut acc.cost.fine, acc.heat);
+        self.packer.flush(fine, acc.heat);
     }
 }

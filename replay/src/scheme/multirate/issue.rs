@@ -2,7 +2,9 @@
 //! lanes are packed into SIMD groups.
 
 use super::config::SimdSchedule;
-use super::MultirateJob;
+use super::tile_pair_cache::REUSE;
+use super::{MultirateJob, COARSE};
+use crate::cost::FINE;
 use crate::scheme::Accounting;
 
 impl MultirateJob {
@@ -12,14 +14,14 @@ impl MultirateJob {
         for lane in &self.coarse_lanes[lanes] {
             if lane.reuse {
                 self.reuse_packer
-                    .lane(&lane.blocks, true, lane.pixel, &mut acc.cost.reuse, acc.heat);
+                    .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(REUSE), acc.heat);
             } else {
                 self.coarse_packer
-                    .lane(&lane.blocks, true, lane.pixel, &mut acc.cost.coarse, acc.heat);
+                    .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(COARSE), acc.heat);
             }
         }
-        self.coarse_packer.flush(&mut acc.cost.coarse, acc.heat);
-        self.reuse_packer.flush(&mut acc.cost.reuse, acc.heat);
+        self.coarse_packer.flush(acc.cost.stage_mut(COARSE), acc.heat);
+        self.reuse_packer.flush(acc.cost.stage_mut(REUSE), acc.heat);
     }
 
     /// Issues the unit's coarse and fine lanes as SIMD groups under the configured schedule.
@@ -35,11 +37,16 @@ impl MultirateJob {
                 }
                 for &q in &self.order {
                     for lane in &self.fine_lanes[4 * q..4 * q + 4] {
-                        self.fine_packer
-                            .lane(&lane.blocks, lane.useful, lane.pixel, &mut acc.cost.fine, acc.heat);
+                        self.fine_packer.lane(
+                            &lane.blocks,
+                            lane.useful,
+                            lane.pixel,
+                            acc.cost.stage_mut(FINE),
+                            acc.heat,
+                        );
                     }
                 }
-                self.fine_packer.flush(&mut acc.cost.fine, acc.heat);
+                self.fine_packer.flush(acc.cost.stage_mut(FINE), acc.heat);
             }
             SimdSchedule::SingleThread => self.issue_single_thread(acc),
         }
@@ -66,10 +73,10 @@ impl MultirateJob {
                     if let Some(&f) = fragments.get(it) {
                         let lane = &self.fine_lanes[f];
                         self.fine_packer
-                            .lane(&lane.blocks, true, lane.pixel, &mut acc.cost.fine, acc.heat);
+                            .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(FINE), acc.heat);
                     }
                 }
-                self.fine_packer.flush(&mut acc.cost.fine, acc.heat);
+                self.fine_packer.flush(acc.cost.stage_mut(FINE), acc.heat);
             }
         }
     }

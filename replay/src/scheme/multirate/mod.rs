@@ -62,7 +62,6 @@ impl ShadingScheme for Multirate {
             order: Vec::new(),
             terms: vec![LightTerm::default(); lights],
             cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
-            sequence: 0,
             reuse_packer: SimdPacker::new(simd_width, lights),
             cells: Vec::new(),
             quad_params: Vec::new(),
@@ -71,6 +70,10 @@ impl ShadingScheme for Multirate {
         })
     }
 }
+
+/// Stage of coarse-rate shading and the refinement predicates (CoarseInst in the tile-pair
+/// paper).
+pub const COARSE: &str = "coarse";
 
 /// A fine lane's work, kept for SIMD packing once the unit's quads are shaded.
 struct FineLane {
@@ -106,8 +109,6 @@ struct MultirateJob {
     order: Vec<usize>,
     terms: Vec<LightTerm>,
     cache: Option<(CacheConfig, ShadingCache)>,
-    /// Tile-pair sequence of the last unit (the cache is cleared when it changes).
-    sequence: u32,
     reuse_packer: SimdPacker,
     /// Object-space schemes: each block's cell, each quad's lane parameters and lattice
     /// levels, and where each quad's lanes read their terms (the blocks are cells, not
@@ -119,6 +120,13 @@ struct MultirateJob {
 }
 
 impl SchemeJob for MultirateJob {
+    /// The shading cache lives for one tile-pair sequence (Yuan et al. §5).
+    fn begin_sequence(&mut self) {
+        if let Some((_, cache)) = self.cache.as_mut() {
+            cache.clear();
+        }
+    }
+
     fn shade_unit(
         &mut self,
         ctx: &UnitContext,
@@ -128,12 +136,6 @@ impl SchemeJob for MultirateJob {
     ) {
         self.coarse_used = 0;
         self.fine_used = 0;
-        if ctx.sequence != self.sequence {
-            self.sequence = ctx.sequence;
-            if let Some((_, cache)) = self.cache.as_mut() {
-                cache.clear();
-            }
-        }
         self.terms.resize(self.lights, LightTerm::default());
         self.sources.clear();
         match self.config.cache.map(|c| c.space) {

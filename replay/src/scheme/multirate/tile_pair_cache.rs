@@ -14,6 +14,10 @@ use crate::scheme::shading_cache::{CacheEntry, CacheKey};
 use crate::scheme::UnitContext;
 use crate::shader::{Effects, LightTerm};
 
+/// Stage of cache queries and the reuse test (ReuseInst in the tile-pair paper); the
+/// object-space caches spend their queries here too.
+pub const REUSE: &str = "reuse";
+
 impl MultirateJob {
     /// Cache key of coarse fragment `i` of a block in `view`: the rate-`n` cell holding its
     /// sample (the rule a cross-view query uses for a projected sample too).
