@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use shadetrace_capture::{capture, CaptureOptions, Input};
-use shadetrace_replay::{pipeline::PreparedScene, replay, LoadedTrace, Preset, ReplayOptions};
+use shadetrace_replay::{pipeline::PreparedScene, replay_all, LoadedTrace, Preset, ReplayOptions};
 
 fn main() {
     let reps: usize = std::env::var("SHADETRACE_BENCH_REPS")
@@ -49,8 +49,8 @@ fn main() {
             let mut shaded = 0;
             for _ in 0..reps {
                 let t = Instant::now();
-                let out = match replay(&trace, &preset, &opts, None, &mut |_| {}) {
-                    Ok(out) => out,
+                let out = match replay_all(&trace, &[(preset, opts.clone())], None, &mut |_, _| Ok(()), &mut |_| {}) {
+                    Ok(mut runs) => runs.remove(0),
                     // texel refuses a scene without a unique UV atlas.
                     Err(e) => {
                         println!("{scene:<10} {name:<12} skipped: {e}");

@@ -4,14 +4,14 @@
 
 use crate::options::ReplayOptions;
 use crate::schedule::{Immediate, Multiview, Scheduler, SortMiddle, TilePair};
-use crate::scheme::multirate::{CacheConfig, CacheSpace, CoarseMode, MultirateConfig};
-use crate::scheme::{Multirate, PerPixel, ShadingScheme};
+use crate::scheme::multirate::CoarseMode;
+use crate::scheme::registry::{self, SchemeEntry, SCHEMES};
+use crate::scheme::ShadingScheme;
 
 /// The reference every relative cost and every quality number is measured against.
 pub const REFERENCE_PRESET: &str = "forward";
 
 pub const SCHEDULERS: [&str; 4] = ["immediate", "sort-middle", "multiview", "tile-pair"];
-pub const SCHEMES: [&str; 5] = ["per-pixel", "multirate", "tile-pair-cache", "amfs", "texel"];
 
 /// A named scheduler x scheme pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,12 +112,11 @@ impl Preset {
         }
         if let Some((scheduler, scheme)) = name.split_once('+') {
             let scheduler = SCHEDULERS.iter().find(|s| **s == scheduler);
-            let scheme = SCHEMES.iter().find(|s| **s == scheme);
-            if let (Some(scheduler), Some(scheme)) = (scheduler, scheme) {
+            if let (Some(scheduler), Some(scheme)) = (scheduler, registry::scheme(scheme)) {
                 return Ok(Preset {
                     name: "custom",
                     scheduler,
-                    scheme,
+                    scheme: scheme.name,
                     mode: None,
                     description: "scheduler x scheme chosen on the command line",
                 });
@@ -128,7 +127,7 @@ impl Preset {
             "unknown preset `{name}` (presets: {}; or SCHEDULER+SCHEME with schedulers {} and schemes {})",
             names.join(", "),
             SCHEDULERS.join(", "),
-            SCHEMES.join(", ")
+            SCHEMES.map(|s| s.name).join(", ")
         ))
     }
 
@@ -152,51 +151,18 @@ impl Preset {
         }
     }
 
-    pub fn scheme(&self, opts: &ReplayOptions) -> Box<dyn ShadingScheme> {
-        match self.scheme {
-            "multirate" | "tile-pair-cache" | "amfs" | "texel" => {
-                let m = &opts.multirate;
-                Box::new(Multirate(MultirateConfig {
-                    mode: m.mode.or(self.mode).unwrap_or(CoarseMode::Coarse2x2),
-                    sampling: m.sampling,
-                    small_triangle: m.small_triangle,
-                    thresholds: m.thresholds.scaled(m.threshold_scale),
-                    schedule: m.schedule,
-                    cache: match self.scheme {
-                        "tile-pair-cache" => Some(CacheSpace::Screen),
-                        "amfs" => Some(CacheSpace::Patch),
-                        "texel" => Some(CacheSpace::Texture),
-                        _ => None,
-                    }
-                    .map(|space| CacheConfig {
-                        space,
-                        bytes: m.cache_kb * 1024,
-                        reuse: m.reuse,
-                    }),
-                }))
-            }
-            _ => Box::new(PerPixel),
-        }
+    /// The registry entry of the preset's scheme.
+    pub fn scheme_info(&self) -> &'static SchemeEntry {
+        registry::scheme(self.scheme).expect("presets name registered schemes")
     }
 
-    /// Whether the preset can run on a trace; texel shading needs a unique UV atlas on every
-    /// mesh, and the error names the first mesh without one.
+    pub fn scheme(&self, opts: &ReplayOptions) -> Box<dyn ShadingScheme> {
+        (self.scheme_info().build)(self, opts)
+    }
+
+    /// Whether the preset can run on a trace; the error names the preset and what is missing.
     pub fn supports(&self, scene: &shadetrace_formats::Scene) -> Result<(), String> {
-        if self.scheme == "texel" {
-            if let Some(mesh) = scene
-                .geometry
-                .meshes
-                .iter()
-                .find(|m| m.uvs.is_empty() || !m.uv_atlas_unique)
-            {
-                return Err(format!(
-                    "preset {}: texel shading needs a unique UV atlas, and mesh `{}` has none",
-                    self.label(),
-                    mesh.name
-                ));
-            }
-        }
-        Ok(())
+        (self.scheme_info().supports)(scene).map_err(|why| format!("preset {}: {why}", self.label()))
     }
 
     /// Name used in results: the preset's, or `scheduler+scheme` for ad-hoc pairs.

@@ -4,7 +4,7 @@
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use shadetrace_formats::results::{
     FrameResult, FrameTotals, RefinedPixels, RunResult, Timing, ViewResult, RESULTS_SCHEMA_VERSION,
@@ -14,8 +14,10 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
 use crate::pipeline::{run_frame, PreparedScene};
-use crate::preset::Preset;
+use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
+use crate::schedule::Scheduler;
+use crate::scheme::ShadingScheme;
 use crate::scheme::{REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
 
 /// A trace in memory, prepared for replay.
@@ -64,75 +66,163 @@ pub struct FrameImages {
     pub views: [ViewImages; 2],
 }
 
-/// Results and images of one replay.
+/// Results of one replay, and the images of its first frame (reports show that one; every
+/// frame's images go to the sink as they are made, so memory stays flat in frames).
 pub struct RunOutput {
     pub result: RunResult,
-    pub images: Vec<FrameImages>,
+    pub first_images: Option<FrameImages>,
 }
 
-/// Replays `trace` with `preset`. With a `reference` run (same trace and options, preset
-/// `forward`), relative cost and quality are filled in.
-pub fn replay(
+/// Called with (run index, images) for every frame of every run, in frame order.
+pub type ImageSink<'a> = dyn FnMut(usize, &FrameImages) -> Result<(), String> + 'a;
+
+/// Replays `trace` with each `(preset, options)` of `runs`, frame by frame in lockstep with
+/// the reference (`forward` under `reference` options, when given) so that relative cost and
+/// quality are measured per frame while only one frame's images are alive. A run of the
+/// reference preset itself is compared against the reference run (two replays, not three).
+/// `progress` gets the number of frames done.
+pub fn replay_all(
     trace: &LoadedTrace,
-    preset: &Preset,
-    opts: &ReplayOptions,
-    reference: Option<&RunOutput>,
+    runs: &[(Preset, ReplayOptions)],
+    reference: Option<&ReplayOptions>,
+    sink: &mut ImageSink,
     progress: &mut dyn FnMut(u32),
-) -> Result<RunOutput, String> {
-    opts.check()?;
-    preset.supports(&trace.prepared.scene)?;
-    let count = trace.frames.len() as u32;
-    let (start, end) = opts.frames.unwrap_or((0, count));
-    if end > count {
-        return Err(format!("--frames {start}..{end}: the trace has {count} frames"));
+) -> Result<Vec<RunOutput>, String> {
+    let mut replays = runs
+        .iter()
+        .map(|(preset, opts)| Replay::new(trace, preset, opts))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut reference = match reference {
+        Some(opts) => Some(Replay::new(trace, &Preset::find(REFERENCE_PRESET)?, opts)?),
+        None => None,
+    };
+    let frames = match (&reference, replays.first()) {
+        (Some(r), _) | (None, Some(r)) => r.frames.clone(),
+        (None, None) => return Ok(Vec::new()),
+    };
+    if let Some(other) = replays.iter().find(|r| r.frames != frames) {
+        return Err(format!(
+            "preset {}: frames {}..{} differ from the reference's {}..{}",
+            other.preset.label(),
+            other.frames.start,
+            other.frames.end,
+            frames.start,
+            frames.end
+        ));
     }
-    let scheduler = preset.scheduler(opts)?;
-    let scheme = preset.scheme(opts);
-    let started = Instant::now();
-    let mut frames = Vec::new();
-    let mut images = Vec::new();
-    let mut total = FrameTotals::default();
-    let mut pixels = 0u64;
-    let (mut width, mut height) = opts
-        .resolution
-        .unwrap_or((trace.meta.capture.eye_width, trace.meta.capture.eye_height));
-    for (done, index) in (start..end).enumerate() {
+    for (done, index) in frames.enumerate() {
+        let reference_frame = match reference.as_mut() {
+            Some(r) => {
+                let images = r.frame(trace, index, None)?;
+                let result = r.results.last().cloned().ok_or("the reference made no frame")?;
+                Some(ReferenceFrame { result, images })
+            }
+            None => None,
+        };
+        for (i, replay) in replays.iter_mut().enumerate() {
+            let images = replay.frame(trace, index, reference_frame.as_ref())?;
+            sink(i, &images)?;
+            replay.first_images.get_or_insert(images);
+        }
+        progress(done as u32 + 1);
+    }
+    let reference_issued = reference.map(|r| r.total.cost.issued());
+    Ok(replays.into_iter().map(|r| r.finish(trace, reference_issued)).collect())
+}
+
+/// One preset's replay in progress.
+struct Replay<'a> {
+    preset: Preset,
+    opts: &'a ReplayOptions,
+    scheduler: Box<dyn Scheduler>,
+    scheme: Box<dyn ShadingScheme>,
+    frames: std::ops::Range<u32>,
+    results: Vec<FrameResult>,
+    total: FrameTotals,
+    pixels: u64,
+    size: (u32, u32),
+    busy: Duration,
+    first_images: Option<FrameImages>,
+}
+
+/// A frame's results with its images, as the reference keeps them for comparison.
+struct ReferenceFrame {
+    result: FrameResult,
+    images: FrameImages,
+}
+
+impl<'a> Replay<'a> {
+    fn new(trace: &LoadedTrace, preset: &Preset, opts: &'a ReplayOptions) -> Result<Replay<'a>, String> {
+        opts.check()?;
+        preset.supports(&trace.prepared.scene)?;
+        let count = trace.frames.len() as u32;
+        let (start, end) = opts.frames.unwrap_or((0, count));
+        if end > count {
+            return Err(format!("--frames {start}..{end}: the trace has {count} frames"));
+        }
+        Ok(Replay {
+            preset: *preset,
+            opts,
+            scheduler: preset.scheduler(opts)?,
+            scheme: preset.scheme(opts),
+            frames: start..end,
+            results: Vec::new(),
+            total: FrameTotals::default(),
+            pixels: 0,
+            size: opts
+                .resolution
+                .unwrap_or((trace.meta.capture.eye_width, trace.meta.capture.eye_height)),
+            busy: Duration::ZERO,
+            first_images: None,
+        })
+    }
+
+    /// Replays frame `index`, records its results and returns its images; with the
+    /// reference's frame, relative cost and quality are filled in.
+    fn frame(
+        &mut self,
+        trace: &LoadedTrace,
+        index: u32,
+        reference: Option<&ReferenceFrame>,
+    ) -> Result<FrameImages, String>
+    where
+        Self: Sized,
+    {
+        let started = Instant::now();
         let frame = &trace.frames[index as usize];
         let out = run_frame(
             &trace.prepared,
             &trace.meta,
             frame,
-            opts,
-            scheduler.as_ref(),
-            scheme.as_ref(),
+            self.opts,
+            self.scheduler.as_ref(),
+            self.scheme.as_ref(),
         );
-        let reference_frame = reference.and_then(|r| {
-            let f = r.result.frames.iter().position(|f| f.frame == index)?;
-            Some((&r.result.frames[f], &r.images[f]))
-        });
+        let info = self.preset.scheme_info();
         let mut views = Vec::new();
-        for (v, view) in out.views.iter().enumerate() {
-            width = view.width;
-            height = view.height;
-            pixels += (view.width * view.height) as u64;
-            let (relative_cost, quality) = match reference_frame {
-                Some((rf, ri)) => {
-                    let issued = rf.views[v].cost.issued();
-                    let rel = if issued == 0 {
-                        None
-                    } else {
-                        Some(view.cost.issued() as f64 / issued as f64)
-                    };
-                    (rel, Some(quality::compare(&ri.views[v].color, &view.image())?))
+        let mut images = Vec::new();
+        for (v, view) in out.views.into_iter().enumerate() {
+            self.size = (view.width, view.height);
+            self.pixels += (view.width * view.height) as u64;
+            let color = Rgba8Image {
+                width: view.width,
+                height: view.height,
+                pixels: view.pixels,
+            };
+            let (relative_cost, quality) = match reference {
+                Some(r) => {
+                    let issued = r.result.views[v].cost.issued();
+                    let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
+                    (rel, Some(quality::compare(&r.images.views[v].color, &color)?))
                 }
                 None => (None, None),
             };
-            total.cost.add(&view.cost);
-            total.shaded_pixels += view.raster.fragments_shaded;
+            self.total.cost.add(&view.cost);
+            self.total.shaded_pixels += view.raster.fragments_shaded;
             if let Some(q) = quality.and_then(|q| q.ssim) {
-                total.min_ssim = Some(total.min_ssim.map_or(q, |m: f64| m.min(q)));
+                self.total.min_ssim = Some(self.total.min_ssim.map_or(q, |m: f64| m.min(q)));
             }
-            let refined_pixels = (preset.scheme != "per-pixel").then(|| {
+            let refined_pixels = info.reports_refinement.then(|| {
                 let count = |bit: u8| view.refinement.iter().filter(|&&r| r & bit != 0).count() as u64;
                 RefinedPixels {
                     diffuse: count(REFINED_DIFFUSE),
@@ -145,15 +235,20 @@ pub fn replay(
                 eye: Eye::BOTH[v].name().to_string(),
                 vertex: view.vertex,
                 raster: view.raster,
-                cost: view.cost.clone(),
+                cost: view.cost,
                 relative_cost,
                 quality,
                 refined_pixels,
-                shading_cache: (preset.scheme != "per-pixel" && preset.scheme != "multirate").then_some(view.cache),
+                shading_cache: info.reports_cache.then_some(view.cache),
+            });
+            images.push(ViewImages {
+                color,
+                cost_heat: view.cost_heat,
+                refinement: view.refinement,
             });
         }
-        total.traffic.add(&out.traffic);
-        frames.push(FrameResult {
+        self.total.traffic.add(&out.traffic);
+        self.results.push(FrameResult {
             frame: index,
             views,
             traffic: out.traffic,
@@ -161,50 +256,41 @@ pub fn replay(
             lists: out.lists,
             shadow_pass: out.shadow_pass,
         });
-        let [l, r] = out.views;
-        images.push(FrameImages {
+        self.busy += started.elapsed();
+        let [left, right]: [ViewImages; 2] = images.try_into().map_err(|_| "a frame has two views".to_string())?;
+        Ok(FrameImages {
             frame: index,
-            views: [
-                ViewImages {
-                    color: l.image(),
-                    cost_heat: l.cost_heat,
-                    refinement: l.refinement,
-                },
-                ViewImages {
-                    color: r.image(),
-                    cost_heat: r.cost_heat,
-                    refinement: r.refinement,
-                },
-            ],
-        });
-        progress(done as u32 + 1);
+            views: [left, right],
+        })
     }
-    if let Some(r) = reference {
-        let issued = r.result.total.cost.issued();
-        total.relative_cost = (issued > 0).then(|| total.cost.issued() as f64 / issued as f64);
-    }
-    let wall_s = started.elapsed().as_secs_f64();
-    Ok(RunOutput {
-        result: RunResult {
-            schema_version: RESULTS_SCHEMA_VERSION,
-            tool_version: env!("CARGO_PKG_VERSION").to_string(),
-            trace_name: trace.name.clone(),
-            trace_hash: trace.hash.to_hex(),
-            preset: preset.label(),
-            scheduler: preset.scheduler_name(opts).to_string(),
-            scheme: preset.scheme.to_string(),
-            options: opts.to_map(),
-            options_hash: opts.hash(),
-            eye_width: width,
-            eye_height: height,
-            frames,
-            total,
-            timing: Timing {
-                wall_s,
-                threads: rayon::current_num_threads() as u32,
-                pixels_per_s: pixels as f64 / wall_s.max(1e-9),
+
+    fn finish(mut self, trace: &LoadedTrace, reference_issued: Option<u64>) -> RunOutput {
+        if let Some(issued) = reference_issued {
+            self.total.relative_cost = (issued > 0).then(|| self.total.cost.issued() as f64 / issued as f64);
+        }
+        let wall_s = self.busy.as_secs_f64();
+        RunOutput {
+            result: RunResult {
+                schema_version: RESULTS_SCHEMA_VERSION,
+                tool_version: env!("CARGO_PKG_VERSION").to_string(),
+                trace_name: trace.name.clone(),
+                trace_hash: trace.hash.to_hex(),
+                preset: self.preset.label(),
+                scheduler: self.preset.scheduler_name(self.opts).to_string(),
+                scheme: self.preset.scheme.to_string(),
+                options: self.opts.to_map(),
+                options_hash: self.opts.hash(),
+                eye_width: self.size.0,
+                eye_height: self.size.1,
+                frames: self.results,
+                total: self.total,
+                timing: Timing {
+                    wall_s,
+                    threads: rayon::current_num_threads() as u32,
+                    pixels_per_s: self.pixels as f64 / wall_s.max(1e-9),
+                },
             },
-        },
-        images,
-    })
+            first_images: self.first_images,
+        }
+    }
 }

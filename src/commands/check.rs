@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 use serde_json::Value;
-use shadetrace_replay::{load_trace, replay, Preset, ReplayOptions, PRESETS, REFERENCE_PRESET};
+use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions, PRESETS};
 
 use crate::golden;
 use crate::output::write_atomically;
@@ -69,13 +69,15 @@ pub fn run(args: Args) -> Result<(), String> {
     let mut checked = 0;
     for entry in &manifest.trace {
         let trace = load_trace(&args.traces.join(&entry.file))?;
-        let reference = replay(&trace, &Preset::find(REFERENCE_PRESET)?, &opts, None, &mut |_| {})?;
+        let mut runnable = Vec::new();
         for preset in &presets {
-            if let Err(why) = preset.supports(&trace.prepared.scene) {
-                println!("skip {}/{}: {why}", entry.name, preset.label());
-                continue;
+            match preset.supports(&trace.prepared.scene) {
+                Ok(()) => runnable.push((*preset, opts.clone())),
+                Err(why) => println!("skip {}/{}: {why}", entry.name, preset.label()),
             }
-            let run = replay(&trace, preset, &opts, Some(&reference), &mut |_| {})?;
+        }
+        let runs = replay_all(&trace, &runnable, Some(&opts), &mut |_, _| Ok(()), &mut |_| {})?;
+        for (run, (preset, _)) in runs.iter().zip(&runnable) {
             let mut result = serde_json::to_value(&run.result).map_err(|e| e.to_string())?;
             // Wall-clock timing is not a golden number.
             if let Some(obj) = result.as_object_mut() {

@@ -3,9 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use shadetrace_replay::{load_trace, replay, LoadedTrace, Preset, ReplayOptions, RunOutput, PRESETS, REFERENCE_PRESET};
+use shadetrace_replay::{
+    load_trace, replay_all, LoadedTrace, Preset, ReplayOptions, RunOutput, PRESETS, REFERENCE_PRESET,
+};
 
-use super::replay::write_outputs;
+use super::replay::{write_frame_images, write_results};
 use super::replay_args::ReplayArgs;
 use super::summary;
 use crate::progress;
@@ -46,8 +48,9 @@ pub fn preset_list(names: &[String]) -> Result<Vec<Preset>, String> {
     Ok(presets)
 }
 
-/// Runs every preset on `trace` (reference first) and writes per-preset outputs and
-/// `summary.csv` into `dir`.
+/// Runs every preset on `trace` against the reference, frame by frame, and writes
+/// per-preset images and results and `summary.csv` into `dir`. Presets the trace cannot run
+/// are reported and left out.
 pub fn run_presets(
     trace: &LoadedTrace,
     presets: &[Preset],
@@ -55,27 +58,33 @@ pub fn run_presets(
     dir: &Path,
     quiet: bool,
 ) -> Result<Vec<RunOutput>, String> {
-    let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
-    let mut runs: Vec<RunOutput> = Vec::new();
+    let mut runnable = Vec::new();
     for preset in presets {
-        if let Err(why) = preset.supports(&trace.prepared.scene) {
-            if !quiet {
-                println!("skipped: {why}");
-            }
-            continue;
+        match preset.supports(&trace.prepared.scene) {
+            Ok(()) => runnable.push((*preset, opts.clone())),
+            Err(why) if !quiet => println!("skipped: {why}"),
+            Err(_) => {}
         }
-        let bar = progress::bar(frames as u64, &preset.label(), quiet);
-        let reference = runs.first();
-        let mut out = replay(trace, preset, opts, reference, &mut |d| bar.set_position(d as u64))?;
-        bar.finish_and_clear();
-        if reference.is_none() {
-            // The reference against itself: relative cost 1 and SSIM 1, measured.
-            out = replay(trace, preset, opts, Some(&out), &mut |_| {})?;
-        }
-        let preset_dir = dir.join(preset.label());
-        std::fs::create_dir_all(&preset_dir).map_err(|e| format!("{}: {e}", preset_dir.display()))?;
-        write_outputs(&preset_dir, &out, true)?;
-        runs.push(out);
+    }
+    let dirs: Vec<(PathBuf, bool)> = runnable
+        .iter()
+        .map(|(p, _)| (dir.join(p.label()), p.scheme_info().reports_refinement))
+        .collect();
+    for (preset_dir, _) in &dirs {
+        std::fs::create_dir_all(preset_dir).map_err(|e| format!("{}: {e}", preset_dir.display()))?;
+    }
+    let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
+    let bar = progress::bar(frames as u64, &format!("frames x {} presets", runnable.len()), quiet);
+    let runs = replay_all(
+        trace,
+        &runnable,
+        Some(opts),
+        &mut |i, images| write_frame_images(&dirs[i].0, images, dirs[i].1),
+        &mut |d| bar.set_position(d as u64),
+    )?;
+    bar.finish_and_clear();
+    for (run, (preset_dir, _)) in runs.iter().zip(&dirs) {
+        write_results(preset_dir, &run.result)?;
     }
     let results: Vec<_> = runs.iter().map(|r| &r.result).collect();
     summary::write_csv(&dir.join("summary.csv"), &results)?;

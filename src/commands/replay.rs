@@ -2,10 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
+use shadetrace_formats::results::RunResult;
 use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::images::{heat_map, robust_max, side_by_side};
 use shadetrace_replay::scheme::{REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
-use shadetrace_replay::{load_trace, replay, Preset, RunOutput, REFERENCE_PRESET};
+use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, RunOutput, REFERENCE_PRESET};
 
 use super::replay_args::ReplayArgs;
 use crate::output::write_atomically;
@@ -39,30 +40,24 @@ pub fn run(args: Args) -> Result<(), String> {
     let opts = args.replay.options();
     opts.check()?;
     let trace = load_trace(&args.trace)?;
+    preset.supports(&trace.prepared.scene)?;
     let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
-    let needs_reference = !args.no_reference && preset.name != REFERENCE_PRESET;
-    let reference = if needs_reference {
-        let bar = progress::bar(frames as u64, "reference", args.quiet);
-        let r = replay(&trace, &Preset::find(REFERENCE_PRESET)?, &opts, None, &mut |d| {
-            bar.set_position(d as u64)
-        })?;
-        bar.finish_and_clear();
-        Some(r)
-    } else {
-        None
-    };
-    let bar = progress::bar(frames as u64, "frames", args.quiet);
-    let mut output = replay(&trace, &preset, &opts, reference.as_ref(), &mut |d| {
-        bar.set_position(d as u64)
-    })?;
-    bar.finish_and_clear();
-    if !args.no_reference && preset.name == REFERENCE_PRESET {
-        // The reference against itself: relative cost 1 and SSIM 1 by construction, measured.
-        let again = replay(&trace, &preset, &opts, None, &mut |_| {})?;
-        output = replay(&trace, &preset, &opts, Some(&again), &mut |_| {})?;
-    }
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    write_outputs(&args.out, &output, !args.no_images)?;
+    let refinement = preset.scheme_info().reports_refinement;
+    let bar = progress::bar(frames as u64, "frames", args.quiet);
+    let mut runs = replay_all(
+        &trace,
+        &[(preset, opts.clone())],
+        (!args.no_reference).then_some(&opts),
+        &mut |_, images| match args.no_images {
+            true => Ok(()),
+            false => write_frame_images(&args.out, images, refinement),
+        },
+        &mut |d| bar.set_position(d as u64),
+    )?;
+    bar.finish_and_clear();
+    let output = runs.pop().ok_or("no run")?;
+    write_results(&args.out, &output.result)?;
     if !args.quiet {
         print_summary(&output);
         println!("wrote {}", args.out.join("results.json").display());
@@ -70,45 +65,45 @@ pub fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Writes `results.json` and, when asked, per-frame images into `dir`.
-pub fn write_outputs(dir: &Path, output: &RunOutput, images: bool) -> Result<(), String> {
-    let json = serde_json::to_string_pretty(&output.result).map_err(|e| e.to_string())?;
+/// Writes `results.json` into `dir` (after the images, so a results file never sits beside
+/// images of another run).
+pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
+    let json = serde_json::to_string_pretty(result).map_err(|e| e.to_string())?;
     write_atomically(&dir.join("results.json"), |w| {
         use std::io::Write;
         w.write_all(json.as_bytes()).map_err(|e| e.to_string())
-    })?;
-    if images {
-        for frame in &output.images {
-            let stem = format!("frame{:04}", frame.frame);
-            for (eye, view) in ["left", "right"].iter().zip(&frame.views) {
-                view.color.write_png(dir.join(format!("{stem}-{eye}.png")))?;
-                let heat: Vec<f32> = view.cost_heat.iter().map(|&c| c as f32).collect();
-                heat_map(
-                    &heat,
-                    view.color.width,
-                    view.color.height,
-                    robust_max(heat.iter().copied()),
-                    "instr per pixel, p99 scale",
-                )
-                .write_png(dir.join(format!("{stem}-{eye}-cost.png")))?;
-                if output.result.scheme != "per-pixel" {
-                    for (bit, effect) in [
-                        (REFINED_DIFFUSE, "diffuse"),
-                        (REFINED_SPECULAR, "specular"),
-                        (REFINED_SHADOW, "shadow"),
-                    ] {
-                        let refined: Vec<f32> = view.refinement.iter().map(|&r| f32::from(r & bit != 0)).collect();
-                        let label = format!("{effect} refined per pixel");
-                        heat_map(&refined, view.color.width, view.color.height, Some(1.0), &label)
-                            .write_png(dir.join(format!("{stem}-{eye}-refine-{effect}.png")))?;
-                    }
-                }
+    })
+}
+
+/// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map and, for
+/// schemes that refine, one refinement map per effect; and the stereo pair.
+pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> Result<(), String> {
+    let stem = format!("frame{:04}", frame.frame);
+    for (eye, view) in ["left", "right"].iter().zip(&frame.views) {
+        view.color.write_png(dir.join(format!("{stem}-{eye}.png")))?;
+        let heat: Vec<f32> = view.cost_heat.iter().map(|&c| c as f32).collect();
+        heat_map(
+            &heat,
+            view.color.width,
+            view.color.height,
+            robust_max(heat.iter().copied()),
+            "instr per pixel, p99 scale",
+        )
+        .write_png(dir.join(format!("{stem}-{eye}-cost.png")))?;
+        if refinement {
+            for (bit, effect) in [
+                (REFINED_DIFFUSE, "diffuse"),
+                (REFINED_SPECULAR, "specular"),
+                (REFINED_SHADOW, "shadow"),
+            ] {
+                let refined: Vec<f32> = view.refinement.iter().map(|&r| f32::from(r & bit != 0)).collect();
+                let label = format!("{effect} refined per pixel");
+                heat_map(&refined, view.color.width, view.color.height, Some(1.0), &label)
+                    .write_png(dir.join(format!("{stem}-{eye}-refine-{effect}.png")))?;
             }
-            side_by_side(&frame.views[0].color, &frame.views[1].color)
-                .write_png(dir.join(format!("{stem}-stereo.png")))?;
         }
     }
-    Ok(())
+    side_by_side(&frame.views[0].color, &frame.views[1].color).write_png(dir.join(format!("{stem}-stereo.png")))
 }
 
 fn print_summary(output: &RunOutput) {

@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use shadetrace_replay::{load_trace, replay, Preset, REFERENCE_PRESET};
+use shadetrace_replay::{load_trace, replay_all, Preset};
 
 use super::replay_args::ReplayArgs;
 use crate::output::write_atomically;
@@ -34,22 +34,32 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<(), String> {
     let preset = Preset::find(&args.preset)?;
-    if preset.scheme == "per-pixel" {
+    if !preset.scheme_info().has_thresholds {
         return Err(format!(
-            "--preset {}: sweeping thresholds needs a multirate preset",
+            "--preset {}: sweeping thresholds needs a scheme with refinement thresholds",
             args.preset
         ));
     }
     let base = args.replay.options();
     base.check()?;
     let trace = load_trace(&args.trace)?;
-    let reference = replay(&trace, &Preset::find(REFERENCE_PRESET)?, &base, None, &mut |_| {})?;
-    let bar = progress::bar(args.scales.len() as u64, "scales", args.quiet);
+    let runs: Vec<_> = args
+        .scales
+        .iter()
+        .map(|&scale| {
+            let mut opts = base.clone();
+            opts.multirate.threshold_scale = scale;
+            (preset, opts)
+        })
+        .collect();
+    let frames = base.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
+    let bar = progress::bar(frames as u64, &format!("frames x {} scales", runs.len()), args.quiet);
+    let outs = replay_all(&trace, &runs, Some(&base), &mut |_, _| Ok(()), &mut |d| {
+        bar.set_position(d as u64)
+    })?;
+    bar.finish_and_clear();
     let mut rows = Vec::new();
-    for (i, &scale) in args.scales.iter().enumerate() {
-        let mut opts = base.clone();
-        opts.multirate.threshold_scale = scale;
-        let out = replay(&trace, &preset, &opts, Some(&reference), &mut |_| {})?;
+    for (out, &scale) in outs.iter().zip(&args.scales) {
         let t = &out.result.total;
         let refined: u64 = out
             .result
@@ -72,9 +82,7 @@ pub fn run(args: Args) -> Result<(), String> {
             t.min_ssim.unwrap_or(f64::NAN),
             refined as f64 / shaded.max(1) as f64,
         ));
-        bar.set_position(i as u64 + 1);
     }
-    bar.finish_and_clear();
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let mut csv = String::from("threshold_scale,relative_cost,min_ssim,refined_fraction\n");
     println!(

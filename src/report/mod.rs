@@ -294,7 +294,7 @@ struct SectionImages {
 impl SectionImages {
     /// Encodes the pictures, each view scaled down to at most `max_view_width` if given.
     fn encode(runs: &[RunOutput], max_view_width: Option<u32>) -> Result<Self, String> {
-        let firsts: Vec<_> = runs.iter().filter_map(|r| r.images.first()).collect();
+        let firsts: Vec<_> = runs.iter().filter_map(|r| r.first_images.as_ref()).collect();
         let heat_max = robust_max(
             firsts
                 .iter()

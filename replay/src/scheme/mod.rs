@@ -5,6 +5,7 @@
 
 pub mod multirate;
 mod per_pixel;
+pub mod registry;
 pub mod shading_cache;
 
 pub use multirate::{Multirate, MultirateConfig};

@@ -19,12 +19,14 @@ mod predicates;
 mod tile_pair_cache;
 
 use glam::{Vec2, Vec3, Vec4};
+use shadetrace_formats::Scene;
 
 use super::shading_cache::{CacheKey, ShadingCache};
 use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
 use crate::cost::{BlockSet, SimdPacker};
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
+use crate::options::ReplayOptions;
 use crate::shader::{compose, Effects, LightTerm, LightingInputs};
 use block::{sample_attributes, CoarseBlock};
 pub use config::{CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds};
@@ -32,6 +34,45 @@ use object_space::{CellBlock, LaneSource};
 use predicates::{effects_bits, NONE};
 
 pub struct Multirate(pub MultirateConfig);
+
+/// The scheme under `opts`, in the preset's coarse mode unless `--coarse-mode` overrides it,
+/// with a shading cache in `space` (none: He et al. as published).
+pub fn build(
+    preset_mode: Option<CoarseMode>,
+    opts: &ReplayOptions,
+    space: Option<CacheSpace>,
+) -> Box<dyn ShadingScheme> {
+    let m = &opts.multirate;
+    Box::new(Multirate(MultirateConfig {
+        mode: m.mode.or(preset_mode).unwrap_or(CoarseMode::Coarse2x2),
+        sampling: m.sampling,
+        small_triangle: m.small_triangle,
+        thresholds: m.thresholds.scaled(m.threshold_scale),
+        schedule: m.schedule,
+        cache: space.map(|space| CacheConfig {
+            space,
+            bytes: m.cache_kb * 1024,
+            reuse: m.reuse,
+        }),
+    }))
+}
+
+/// Texel shading needs a unique UV atlas on every mesh; the error names the first mesh
+/// without one.
+pub fn supports_texel(scene: &Scene) -> Result<(), String> {
+    match scene
+        .geometry
+        .meshes
+        .iter()
+        .find(|m| m.uvs.is_empty() || !m.uv_atlas_unique)
+    {
+        Some(mesh) => Err(format!(
+            "texel shading needs a unique UV atlas, and mesh `{}` has none",
+            mesh.name
+        )),
+        None => Ok(()),
+    }
+}
 
 impl ShadingScheme for Multirate {
     fn name(&self) -> &'static str {

@@ -1,0 +1,82 @@
+//! The registry of shading schemes: each entry names a scheme, says what it models and
+//! reports, and builds it. Nothing outside this file matches on scheme names; adding a scheme
+//! is one module plus one line in [`SCHEMES`].
+
+use shadetrace_formats::Scene;
+
+use super::multirate::{self, CacheSpace};
+use super::{PerPixel, ShadingScheme};
+use crate::options::ReplayOptions;
+use crate::preset::Preset;
+
+pub struct SchemeEntry {
+    pub name: &'static str,
+    /// What the scheme models, for `shadetrace presets`.
+    pub models: &'static str,
+    /// Results carry per-pixel refinement counts and heat maps (multi-rate schemes).
+    pub reports_refinement: bool,
+    /// Results carry shading-cache statistics.
+    pub reports_cache: bool,
+    /// The refinement thresholds and `--threshold-scale` apply (what `sweep` varies).
+    pub has_thresholds: bool,
+    pub build: fn(&Preset, &ReplayOptions) -> Box<dyn ShadingScheme>,
+    /// Whether the scheme can run on a trace; the error names what is missing.
+    pub supports: fn(&Scene) -> Result<(), String>,
+}
+
+fn any_scene(_: &Scene) -> Result<(), String> {
+    Ok(())
+}
+
+pub const SCHEMES: [SchemeEntry; 5] = [
+    SchemeEntry {
+        name: "per-pixel",
+        models: "every lane of every quad runs the whole shader (the reference)",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| Box::new(PerPixel),
+        supports: any_scene,
+    },
+    SchemeEntry {
+        name: "multirate",
+        models: "He, Gu and Fatahalian 2014: coarse blocks, refinement predicates, SIMD schedules",
+        reports_refinement: true,
+        reports_cache: false,
+        has_thresholds: true,
+        build: |p, o| multirate::build(p.mode, o, None),
+        supports: any_scene,
+    },
+    SchemeEntry {
+        name: "tile-pair-cache",
+        models: "Yuan, Wang and Bao: multi-rate shading through a screen-space cache with cross-view reuse",
+        reports_refinement: true,
+        reports_cache: true,
+        has_thresholds: true,
+        build: |p, o| multirate::build(p.mode, o, Some(CacheSpace::Screen)),
+        supports: any_scene,
+    },
+    SchemeEntry {
+        name: "amfs",
+        models: "AMFS-like patch-space shading cache, local and view-independent",
+        reports_refinement: true,
+        reports_cache: true,
+        has_thresholds: true,
+        build: |p, o| multirate::build(p.mode, o, Some(CacheSpace::Patch)),
+        supports: any_scene,
+    },
+    SchemeEntry {
+        name: "texel",
+        models: "texel shading: a texture-space cache over a unique UV atlas",
+        reports_refinement: true,
+        reports_cache: true,
+        has_thresholds: true,
+        build: |p, o| multirate::build(p.mode, o, Some(CacheSpace::Texture)),
+        supports: multirate::supports_texel,
+    },
+];
+
+/// The registry entry of scheme `name`.
+pub fn scheme(name: &str) -> Option<&'static SchemeEntry> {
+    SCHEMES.iter().find(|s| s.name == name)
+}
