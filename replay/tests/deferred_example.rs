@@ -139,3 +139,25 @@ fn deferred_example_equals_forward_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn pixels_covered_counts_the_pixels_that_are_not_clear() {
+    use shadetrace_replay::pipeline::CLEAR_COLOR;
+    use shadetrace_replay::srgb::linear_to_srgb8;
+    let clear = [CLEAR_COLOR.x, CLEAR_COLOR.y, CLEAR_COLOR.z].map(linear_to_srgb8);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../traces");
+    for (trace, msaa) in [("spheres", 1), ("depth-stack", 4)] {
+        let trace = load_trace(&root.join(format!("{trace}.strace"))).unwrap();
+        let opts = ReplayOptions {
+            resolution: Some((96, 80)),
+            msaa,
+            ..ReplayOptions::default()
+        };
+        let out = run_frame(&trace.prepared, &trace.meta, &trace.frames[0], &opts, &Immediate, &PerPixel);
+        for view in &out.views {
+            let not_clear = view.pixels.iter().filter(|p| p[..3] != clear).count() as u64;
+            assert!(not_clear > 0);
+            assert_eq!(view.raster.pixels_covered, not_clear, "{}", trace.name);
+        }
+    }
+}

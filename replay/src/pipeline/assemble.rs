@@ -26,6 +26,7 @@ pub fn view(v: usize, vertex: VertexStats, grid: TileGrid, simd_width: u32, outp
         cache.add(&out.cache[v]);
         cost.add(&out.cost[v]);
         for tile in out.tiles.iter().filter(|t| t.view as usize == v) {
+            raster.pixels_covered += tile.covered;
             let r = tile.rect;
             let tile_width = (r.x1 - r.x0) as usize;
             for (row, y) in (r.y0..r.y1).enumerate() {

@@ -11,6 +11,8 @@ pub struct TileImage {
     pub view: u8,
     pub rect: Rect,
     pub pixels: Vec<[u8; 4]>,
+    /// Pixels with at least one sample covered by a surface.
+    pub covered: u64,
 }
 
 pub fn resolve(buffer: &TileBuffer) -> TileImage {
@@ -20,10 +22,14 @@ pub fn resolve(buffer: &TileBuffer) -> TileImage {
         .chunks_exact(samples)
         .map(|s| encode(s.iter().copied().sum::<Vec4>() / samples as f32))
         .collect();
+    let covered = (0..buffer.blended.len())
+        .filter(|&p| buffer.covered(p * samples))
+        .count() as u64;
     TileImage {
         view: buffer.view,
         rect: buffer.rect,
         pixels,
+        covered,
     }
 }
 
