@@ -32,6 +32,8 @@ enum Command {
     Demo(commands::demo::Args),
     /// Cost-versus-SSIM curve of a multi-rate preset over refinement-threshold scales.
     Sweep(commands::sweep::Args),
+    /// List the presets, schedulers and shading schemes and what each models.
+    Presets(commands::presets::Args),
     /// Compare every corpus trace x preset with the golden numbers in traces/golden/.
     Check(commands::check::Args),
 }
@@ -45,6 +47,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => commands::compare::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Sweep(args) => commands::sweep::run(args),
+        Command::Presets(args) => commands::presets::run(args),
         Command::Check(args) => commands::check::run(args),
     };
     match result {

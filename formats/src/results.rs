@@ -35,6 +35,34 @@ pub struct RunResult {
     pub timing: Timing,
 }
 
+impl RunResult {
+    /// Every float field that is NaN or infinite, by path. JSON has no NaN (serde_json
+    /// writes `null`), so results are checked before they are written.
+    pub fn non_finite_fields(&self) -> Vec<String> {
+        let mut bad = Vec::new();
+        let mut check = |path: String, v: Option<f64>| {
+            if v.is_some_and(|v| !v.is_finite()) {
+                bad.push(path);
+            }
+        };
+        for (f, frame) in self.frames.iter().enumerate() {
+            for (v, view) in frame.views.iter().enumerate() {
+                let at = format!("frames[{f}].views[{v}]");
+                check(format!("{at}.relative_cost"), view.relative_cost);
+                if let Some(q) = view.quality {
+                    check(format!("{at}.quality.ssim"), q.ssim);
+                    check(format!("{at}.quality.psnr_db"), q.psnr_db);
+                }
+            }
+        }
+        check("total.relative_cost".into(), self.total.relative_cost);
+        check("total.min_ssim".into(), self.total.min_ssim);
+        check("timing.wall_s".into(), Some(self.timing.wall_s));
+        check("timing.pixels_per_s".into(), Some(self.timing.pixels_per_s));
+        bad
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameResult {
     pub frame: u32,
@@ -383,4 +411,33 @@ pub struct Timing {
     pub threads: u32,
     /// Pixels of all views and frames replayed per second.
     pub pixels_per_s: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_fields_are_named() {
+        let mut r = RunResult {
+            schema_version: RESULTS_SCHEMA_VERSION,
+            tool_version: String::new(),
+            trace_name: String::new(),
+            trace_hash: String::new(),
+            preset: String::new(),
+            scheduler: String::new(),
+            scheme: String::new(),
+            options: BTreeMap::new(),
+            options_hash: String::new(),
+            eye_width: 1,
+            eye_height: 1,
+            frames: Vec::new(),
+            total: FrameTotals::default(),
+            timing: Timing::default(),
+        };
+        assert!(r.non_finite_fields().is_empty());
+        r.total.min_ssim = Some(f64::NAN);
+        r.timing.pixels_per_s = f64::INFINITY;
+        assert_eq!(r.non_finite_fields(), ["total.min_ssim", "timing.pixels_per_s"]);
+    }
 }

@@ -153,7 +153,14 @@ fn pixels_covered_counts_the_pixels_that_are_not_clear() {
             msaa,
             ..ReplayOptions::default()
         };
-        let out = run_frame(&trace.prepared, &trace.meta, &trace.frames[0], &opts, &Immediate, &PerPixel);
+        let out = run_frame(
+            &trace.prepared,
+            &trace.meta,
+            &trace.frames[0],
+            &opts,
+            &Immediate,
+            &PerPixel,
+        );
         for view in &out.views {
             let not_clear = view.pixels.iter().filter(|p| p[..3] != clear).count() as u64;
             assert!(not_clear > 0);

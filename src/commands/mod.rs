@@ -5,6 +5,7 @@ pub mod check;
 pub mod compare;
 pub mod demo;
 pub mod info;
+pub mod presets;
 pub mod replay;
 pub mod replay_args;
 pub mod summary;

@@ -68,6 +68,9 @@ pub fn run(args: Args) -> Result<(), String> {
 /// Writes `results.json` into `dir` (after the images, so a results file never sits beside
 /// images of another run).
 pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
+    if let Some(field) = result.non_finite_fields().first() {
+        return Err(format!("{}: {field} is not a finite number", result.preset));
+    }
     let json = serde_json::to_string_pretty(result).map_err(|e| e.to_string())?;
     write_atomically(&dir.join("results.json"), |w| {
         use std::io::Write;
