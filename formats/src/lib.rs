@@ -1,5 +1,5 @@
 //! shadetrace-formats: the trace schema and its chunked, zstd-compressed, content-hashed
-//! container (DESIGN.md §2). This crate knows no back-end and no scene format.
+//! container (README.md, The trace format). This crate knows no back-end and no scene format.
 
 pub mod container;
 pub mod error;

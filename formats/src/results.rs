@@ -168,7 +168,8 @@ impl VertexStats {
 pub struct RasterStats {
     /// (triangle, tile) pairs the scheduler issued.
     pub units: u64,
-    /// Units rejected whole by the per-tile hierarchical z.
+    /// Units culled whole: their nearest depth lies behind the farthest depth of the tile
+    /// (one bound per tile; the name is schema 1's).
     pub hiz_culled_units: u64,
     pub quads_rasterized: u64,
     /// Quads with at least one sample passing early-z (sent to shading).

@@ -1,7 +1,7 @@
 //! The one cost table: ALU and texture instructions per shader block. Every scheme issues
 //! the same blocks from this table, so relative costs compare like with like.
 //!
-//! The counts model the DESIGN.md §4 shader (Lambert + Phong + 5x5 PCF, times a per-pixel
+//! The counts model the shader of ARCHITECTURE.md (Definitions) (Lambert + Phong + 5x5 PCF, times a per-pixel
 //! albedo). With one shadowed light and a textured albedo, the coarse-able blocks are 104 of
 //! 115 instructions (90%), close to the 91% He et al. report for their baseline shader.
 

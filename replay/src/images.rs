@@ -2,7 +2,7 @@
 //! stereo pairs and heat maps (per-pixel shading cost, refinement, SSIM) with a legend.
 //!
 //! Everything here is deterministic (no clocks, no thread-dependent order, fixed PNG
-//! settings), so the same replay writes byte-identical files (DESIGN.md §6), and nothing
+//! settings), so the same replay writes byte-identical files (ARCHITECTURE.md, Definitions: determinism), and nothing
 //! panics on odd sizes: empty, 1x1 and very wide images all work.
 
 pub use crate::srgb::linear_to_srgb8;

@@ -1,4 +1,4 @@
-//! Image quality of a rendered view against the per-pixel reference (DESIGN.md §5):
+//! Image quality of a rendered view against the per-pixel reference (ARCHITECTURE.md, Definitions: quality):
 //! SSIM on 8-bit sRGB luma, PSNR and maximum absolute error on 8-bit RGB. This is the one
 //! implementation every back-end reports through, so the numbers are comparable.
 //!
@@ -262,7 +262,7 @@ pub fn max_abs_error(a: &Rgba8Image, b: &Rgba8Image) -> u8 {
         .unwrap_or(0)
 }
 
-/// All quality metrics of `test` against `reference` (DESIGN.md §5). `ssim` is None for
+/// All quality metrics of `test` against `reference` (ARCHITECTURE.md, Definitions: quality). `ssim` is None for
 /// images smaller than 11x11 and `psnr_db` is None when the images are identical.
 /// Errors when the images differ in size, have no pixels, or have a pixel buffer that is
 /// not `width * height` long.

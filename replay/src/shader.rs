@@ -1,4 +1,4 @@
-//! The shader of DESIGN.md §4, split into the blocks of the cost table: coarse-able lighting
+//! The shader of ARCHITECTURE.md (Definitions: shader), split into the blocks of the cost table: coarse-able lighting
 //! (Lambert diffuse, Phong `(R·L)^n` specular, 5x5 PCF shadow, local lights) and the fine
 //! albedo (base colour times texture), composed as `tonemap(albedo * lighting)`.
 //!

@@ -3,7 +3,7 @@
 /// The sRGB transfer function (OETF) from a linear value to an 8-bit code, rounded to
 /// nearest. Values are clamped to [0, 1] first; NaN maps to 0 so a bad shader result
 /// shows as black instead of poisoning the image. `libm` keeps the result identical on
-/// every platform (DESIGN.md §6).
+/// every platform (ARCHITECTURE.md, Definitions: determinism).
 pub fn linear_to_srgb8(c: f32) -> u8 {
     let c = unit(c);
     let encoded = if c <= 0.003_130_8 {

@@ -115,7 +115,7 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String,
         "<footer>Written by shadetrace {}. Relative shading cost: issued SIMD instructions over those of the \
          reference preset <code>forward</code> on the same frames and views. SSIM: Gaussian 11x11 window on 8-bit \
          sRGB luma against <code>forward</code>, lowest over frames and views. Traffic: bytes to DRAM after the \
-         on-chip caches (DESIGN.md §5).</footer>\n</body>\n</html>\n",
+         on-chip caches (ARCHITECTURE.md, Definitions).</footer>\n</body>\n</html>\n",
         env!("CARGO_PKG_VERSION")
     );
     Ok(h)

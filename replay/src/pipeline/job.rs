@@ -15,7 +15,7 @@ use crate::command::{Command, Job, Unit};
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
 use crate::raster::{rasterize, sample_position};
-use crate::scheme::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext};
+use crate::scheme::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, ViewContext};
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
 
@@ -47,6 +47,38 @@ pub struct JobOutput {
     pub heat: BTreeMap<u32, u32>,
     pub refinement: BTreeMap<u32, u8>,
     pub cache: [ShadingCacheStats; 2],
+}
+
+impl JobContext<'_> {
+    /// What passes over view `view` may read.
+    fn view(&self, view: u8) -> ViewContext<'_> {
+        ViewContext {
+            view,
+            eye: self.eyes[view as usize],
+            view_projections: self.view_projections,
+            eyes: self.eyes,
+            width: self.grid.width,
+            height: self.grid.height,
+            geometry: self.geometry,
+            env: self.env,
+        }
+    }
+}
+
+impl JobOutput {
+    /// Runs `f` with the accounting of view `v`: its cost, the command's log, the job's heat
+    /// and refinement maps and its cache statistics.
+    fn account<R>(&mut self, v: usize, log: &mut AccessLog, f: impl FnOnce(&mut Accounting) -> R) -> R {
+        let heat = &mut self.heat;
+        let refinement = &mut self.refinement;
+        f(&mut Accounting {
+            cost: &mut self.cost[v],
+            log,
+            heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
+            refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
+            cache: &mut self.cache[v],
+        })
+    }
 }
 
 /// Reusable per-job scratch (no allocation per unit).
@@ -185,31 +217,13 @@ fn geometry_command(
         scratch.shade_quads.extend(scratch.quads.iter().map(|q| q.0));
         scratch.colors.clear();
         let unit_ctx = UnitContext {
-            view: unit.view,
-            eye: ctx.eyes[v],
-            view_projections: ctx.view_projections,
-            eyes: ctx.eyes,
-            width: ctx.grid.width,
-            height: ctx.grid.height,
+            view_ctx: ctx.view(unit.view),
             setup,
             triangle,
-            geometry: ctx.geometry,
-            env: ctx.env,
         };
-        let heat = &mut out.heat;
-        let refinement = &mut out.refinement;
-        scheme_job.shade_unit(
-            &unit_ctx,
-            &scratch.shade_quads,
-            &mut scratch.colors,
-            &mut Accounting {
-                cost: &mut out.cost[v],
-                log: &mut log,
-                heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
-                refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
-                cache: &mut out.cache[v],
-            },
-        );
+        out.account(v, &mut log, |acc| {
+            scheme_job.shade_unit(&unit_ctx, &scratch.shade_quads, &mut scratch.colors, acc)
+        });
         let raster = &mut out.raster[v];
         raster.quads_shaded += scratch.quads.len() as u64;
         let input = MergeInput {
@@ -247,31 +261,12 @@ fn shade_tile(
         raster.fragments_shaded += u64::from(visible > 0);
     }
     let tile_ctx = TileContext {
-        view: buffer.view,
-        eye: ctx.eyes[v],
-        view_projections: ctx.view_projections,
-        eyes: ctx.eyes,
-        width: ctx.grid.width,
-        height: ctx.grid.height,
+        view_ctx: ctx.view(buffer.view),
         setups: ctx.setups[v],
-        geometry: ctx.geometry,
-        env: ctx.env,
         offsets: ctx.offsets,
         layout: ctx.layout,
     };
-    let heat = &mut out.heat;
-    let refinement = &mut out.refinement;
-    scheme_job.shade_tile(
-        &tile_ctx,
-        buffer,
-        &mut Accounting {
-            cost: &mut out.cost[v],
-            log: &mut log,
-            heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
-            refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
-            cache: &mut out.cache[v],
-        },
-    );
+    out.account(v, &mut log, |acc| scheme_job.shade_tile(&tile_ctx, buffer, acc));
     log
 }
 

@@ -30,8 +30,9 @@ pub struct ShadeQuad {
     pub lanes: u8,
 }
 
-/// What a scheme may read while shading one unit.
-pub struct UnitContext<'a> {
+/// What every pass may read about the view it shades.
+#[derive(Clone, Copy)]
+pub struct ViewContext<'a> {
     pub view: u8,
     pub eye: Vec3,
     /// Both views' world-to-clip matrices and eyes (cross-view reuse projects into the other).
@@ -39,10 +40,22 @@ pub struct UnitContext<'a> {
     pub eyes: [Vec3; 2],
     pub width: u32,
     pub height: u32,
-    pub setup: &'a SetupTriangle,
-    pub triangle: &'a Triangle,
     pub geometry: &'a FrameGeometry,
     pub env: &'a ShaderEnv<'a>,
+}
+
+/// What a scheme may read while shading one unit: its view and its triangle.
+pub struct UnitContext<'a> {
+    pub view_ctx: ViewContext<'a>,
+    pub setup: &'a SetupTriangle,
+    pub triangle: &'a Triangle,
+}
+
+impl<'a> std::ops::Deref for UnitContext<'a> {
+    type Target = ViewContext<'a>;
+    fn deref(&self) -> &ViewContext<'a> {
+        &self.view_ctx
+    }
 }
 
 /// Interpolated attributes of one lane.
@@ -141,16 +154,9 @@ pub trait SchemeJob {
 
 /// What a screen pass may read while shading one tile of one view.
 pub struct TileContext<'a> {
-    pub view: u8,
-    pub eye: Vec3,
-    pub view_projections: [Mat4; 2],
-    pub eyes: [Vec3; 2],
-    pub width: u32,
-    pub height: u32,
+    pub view_ctx: ViewContext<'a>,
     /// The view's setup triangles, indexed by the tile's visibility ids.
     pub setups: &'a [SetupTriangle],
-    pub geometry: &'a FrameGeometry,
-    pub env: &'a ShaderEnv<'a>,
     /// Sample offsets of the pixel (MSAA pattern).
     pub offsets: &'a [[i64; 2]],
     pub layout: FramebufferLayout,
@@ -161,16 +167,16 @@ impl<'a> TileContext<'a> {
     pub fn unit(&self, tri: u32) -> UnitContext<'a> {
         let setup = &self.setups[tri as usize];
         UnitContext {
-            view: self.view,
-            eye: self.eye,
-            view_projections: self.view_projections,
-            eyes: self.eyes,
-            width: self.width,
-            height: self.height,
+            view_ctx: self.view_ctx,
             setup,
-            triangle: &self.geometry.triangles[setup.prim as usize],
-            geometry: self.geometry,
-            env: self.env,
+            triangle: &self.view_ctx.geometry.triangles[setup.prim as usize],
         }
+    }
+}
+
+impl<'a> std::ops::Deref for TileContext<'a> {
+    type Target = ViewContext<'a>;
+    fn deref(&self) -> &ViewContext<'a> {
+        &self.view_ctx
     }
 }

@@ -2,8 +2,10 @@
 //! `h(q, n, v)` (coarse-fragment cell, shading rate, view), least-recently-used eviction, a
 //! fixed byte budget per job (an epipolar tile row under the tile-pair scheduler), cleared
 //! when a sequence of neighbouring tile pairs ends. Entries hold the coarse shader's inputs
-//! (position and normal, stored as f16) and outputs (every light's term as f32, the
-//! reflected-light cosines, the refinement flags), and are counted at that size.
+//! (position and normal) and outputs (every light's term, the reflected-light cosines, the
+//! refinement flags). The simulator keeps every value as f32 (so reuse is exact), but an
+//! entry counts against the budget at the size hardware would store: inputs as f16,
+//! outputs as f32 ([`entry_bytes`]).
 
 use std::collections::BTreeMap;
 
@@ -40,7 +42,7 @@ pub struct CacheEntry {
     pub view: u8,
 }
 
-/// Bytes of one entry for `lights` lights: key (8), inputs as f16 (12), per light a term
+/// Budget bytes of one entry for `lights` lights: key (8), inputs counted as f16 (12), per light a term
 /// (3 x f32) and `R · L` (f32), and the flags (4).
 pub fn entry_bytes(lights: usize) -> usize {
     8 + 12 + 16 * lights + 4
