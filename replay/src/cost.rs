@@ -10,32 +10,37 @@ use crate::cost_table::{Block, BlockCost};
 /// paper).
 pub const FINE: &str = "fine";
 
-/// Per-light block flags.
-pub const LIGHT_DIFFUSE: u8 = 1;
-pub const LIGHT_SPECULAR: u8 = 2;
-pub const LIGHT_SHADOW: u8 = 4;
-pub const LIGHT_LOCAL: u8 = 8;
+bitflags::bitflags! {
+    /// The per-light blocks a lane takes.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct LightBlocks: u8 {
+        const DIFFUSE = 1;
+        const SPECULAR = 2;
+        const SHADOW = 4;
+        const LOCAL = 8;
+    }
+}
 
 /// The blocks one lane (or, as a union, one SIMD group) takes.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BlockSet {
     /// One bit per light-independent [`Block`] (bit = `Block as u32`).
     pub fixed: u32,
-    /// Per light: `LIGHT_*` flags.
-    pub lights: Vec<u8>,
+    /// Per light: its blocks.
+    pub lights: Vec<LightBlocks>,
 }
 
 impl BlockSet {
     pub fn new(lights: usize) -> Self {
         BlockSet {
             fixed: 0,
-            lights: vec![0; lights],
+            lights: vec![LightBlocks::empty(); lights],
         }
     }
 
     pub fn clear(&mut self) {
         self.fixed = 0;
-        self.lights.iter_mut().for_each(|l| *l = 0);
+        self.lights.iter_mut().for_each(|l| *l = LightBlocks::empty());
     }
 
     #[inline]
@@ -64,12 +69,12 @@ impl BlockSet {
         }
         for &flags in &self.lights {
             for (flag, block) in [
-                (LIGHT_DIFFUSE, Block::Diffuse),
-                (LIGHT_SPECULAR, Block::Specular),
-                (LIGHT_SHADOW, Block::Shadow),
-                (LIGHT_LOCAL, Block::LocalLight),
+                (LightBlocks::DIFFUSE, Block::Diffuse),
+                (LightBlocks::SPECULAR, Block::Specular),
+                (LightBlocks::SHADOW, Block::Shadow),
+                (LightBlocks::LOCAL, Block::LocalLight),
             ] {
-                if flags & flag != 0 {
+                if flags.contains(flag) {
                     add(block.cost());
                 }
             }
@@ -188,10 +193,10 @@ mod tests {
         let mut heat = |p: u32, n: u32| heat_map[p as usize] += n;
         let mut lit = BlockSet::new(1);
         lit.take(Block::Compose);
-        lit.lights[0] = LIGHT_DIFFUSE | LIGHT_SHADOW;
+        lit.lights[0] = LightBlocks::DIFFUSE | LightBlocks::SHADOW;
         let mut dark = BlockSet::new(1);
         dark.take(Block::Compose);
-        dark.lights[0] = LIGHT_DIFFUSE;
+        dark.lights[0] = LightBlocks::DIFFUSE;
         packer.lane(&lit, true, 0, &mut stage, &mut heat);
         packer.lane(&dark, true, 1, &mut stage, &mut heat);
         packer.lane(&dark, false, 2, &mut stage, &mut heat);

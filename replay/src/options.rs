@@ -1,90 +1,84 @@
 //! Replay options: everything besides the trace and the preset that can change a number.
-//! Their canonical text (a sorted key=value list) is hashed to key golden files.
+//! One struct is the command line (clap), the defaults and the options map recorded in
+//! results (serde); the map's canonical text (sorted `key=value` lines) is hashed to key
+//! golden files. Scheme families own their options (`MultirateOptions`).
 
 use std::collections::BTreeMap;
+use std::fmt::Display;
 
+use serde::{Serialize, Serializer};
+use serde_json::Value;
 use sha2::{Digest, Sha256};
 
-use crate::scheme::multirate::{CoarseMode, ReuseTest, Sampling, SimdSchedule, Thresholds};
-use crate::scheme::shading_cache::DEFAULT_CACHE_BYTES;
+pub use crate::scheme::multirate::config::MultirateOptions;
 
 /// Options shared by every back-end.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, clap::Args, Serialize)]
 pub struct ReplayOptions {
-    /// Frames to replay, `start..end` (None: all).
+    /// Frames to replay, START..END (end exclusive) or a single frame N.
+    #[arg(long, value_name = "START..END", value_parser = parse_frames)]
+    #[serde(serialize_with = "frames_text")]
     pub frames: Option<(u32, u32)>,
-    /// Per-eye resolution override (None: the trace's).
+    /// Per-eye resolution override, WIDTHxHEIGHT (default: the trace's).
+    #[arg(long = "res", value_name = "WIDTHxHEIGHT", value_parser = parse_resolution)]
+    #[serde(serialize_with = "resolution_text")]
     pub resolution: Option<(u32, u32)>,
-    /// Tile edge in pixels (even, 4..=64).
+    /// Tile edge in pixels (even, 4..64).
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.tile)]
     pub tile: u32,
-    /// SIMD width in lanes (1..=64).
+    /// SIMD width in lanes (1..64).
+    #[arg(long = "simd", default_value_t = DEFAULT_OPTIONS.simd_width)]
     pub simd_width: u32,
+    /// Texture cache size in KiB.
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.texture_cache_kb)]
     pub texture_cache_kb: u32,
+    /// Triangle (vertex) data cache size in KiB.
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.triangle_cache_kb)]
     pub triangle_cache_kb: u32,
     /// The depth and colour caches each hold this many tiles.
+    #[arg(long = "fb-cache-tiles", default_value_t = DEFAULT_OPTIONS.framebuffer_cache_tiles)]
     pub framebuffer_cache_tiles: u32,
-    /// Samples per pixel: 1, 4 or 8.
+    /// Samples per pixel (1, 4 or 8).
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.msaa)]
     pub msaa: u32,
+    /// Shadow-map edge in texels.
+    #[arg(long = "shadow-map", default_value_t = DEFAULT_OPTIONS.shadow_map_size)]
     pub shadow_map_size: u32,
-    /// Depth-only pass first, then shade only the visible surface.
+    /// Depth-only pre-pass, then shade only the visible surface.
+    #[arg(long)]
     pub z_prepass: bool,
-    /// Runs the preset's shading scheme under another scheduler.
+    /// Run the preset's shading scheme under this scheduler (immediate, sort-middle,
+    /// multiview, tile-pair).
+    #[arg(long = "schedule")]
+    #[serde(serialize_with = "scheduler_text")]
     pub scheduler: Option<String>,
-    /// Tile-pair sequences nearest first (the disparity constraint); off for the ablation.
+    /// Tile-pair: process sequences leftmost first instead of nearest first (Fig. 13
+    /// ablation).
+    #[arg(long = "no-disparity-order", action = clap::ArgAction::SetFalse)]
     pub disparity_order: bool,
+    #[command(flatten)]
     pub multirate: MultirateOptions,
 }
 
-/// Options of the `multirate` scheme (ignored by other schemes, but part of every options
-/// hash so that a golden never matches a run made with other thresholds).
-#[derive(Clone, Debug, PartialEq)]
-pub struct MultirateOptions {
-    /// Overrides the preset's coarse mode.
-    pub mode: Option<CoarseMode>,
-    pub sampling: Sampling,
-    pub small_triangle: bool,
-    pub thresholds: Thresholds,
-    /// Multiplies the refinement thresholds: 0 refines everything, inf nothing.
-    pub threshold_scale: f32,
-    pub schedule: SimdSchedule,
-    /// Shading-cache size of the cache schemes, KiB per job (an epipolar tile row).
-    pub cache_kb: u32,
-    /// The tile-pair reuse shader's thresholds.
-    pub reuse: ReuseTest,
-}
-
-impl Default for MultirateOptions {
-    fn default() -> Self {
-        MultirateOptions {
-            mode: None,
-            sampling: Sampling::CoverageBbox,
-            small_triangle: true,
-            thresholds: Thresholds::default(),
-            threshold_scale: 1.0,
-            schedule: SimdSchedule::TwoPhase,
-            cache_kb: DEFAULT_CACHE_BYTES / 1024,
-            reuse: ReuseTest::default(),
-        }
-    }
-}
+pub const DEFAULT_OPTIONS: ReplayOptions = ReplayOptions {
+    frames: None,
+    resolution: None,
+    tile: 16,
+    simd_width: 16,
+    texture_cache_kb: 16,
+    triangle_cache_kb: 8,
+    framebuffer_cache_tiles: 2,
+    msaa: 1,
+    shadow_map_size: 2048,
+    z_prepass: false,
+    scheduler: None,
+    disparity_order: true,
+    multirate: crate::scheme::multirate::config::DEFAULT_MULTIRATE,
+};
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        ReplayOptions {
-            frames: None,
-            resolution: None,
-            tile: 16,
-            simd_width: 16,
-            texture_cache_kb: 16,
-            triangle_cache_kb: 8,
-            framebuffer_cache_tiles: 2,
-            msaa: 1,
-            shadow_map_size: 2048,
-            z_prepass: false,
-            scheduler: None,
-            disparity_order: true,
-            multirate: MultirateOptions::default(),
-        }
+        DEFAULT_OPTIONS
     }
 }
 
@@ -114,86 +108,22 @@ impl ReplayOptions {
                 return Err(format!("--res {w}x{h}: each edge must be 1..=16384"));
             }
         }
-        let t = &self.multirate.thresholds;
-        for (name, v) in [
-            ("--t-diffuse", t.diffuse),
-            ("--t-specular", t.specular),
-            ("--t-shadow", t.shadow),
-            ("--threshold-scale", self.multirate.threshold_scale),
-            ("--reuse-position", self.multirate.reuse.position),
-            ("--reuse-normal", self.multirate.reuse.normal),
-            ("--reuse-r-dot-l", self.multirate.reuse.r_dot_l),
-        ] {
-            if v.is_nan() || v < 0.0 {
-                return Err(format!("{name} {v} must be a non-negative number (inf allowed)"));
-            }
-        }
-        if !(t.lambda.is_finite() && t.edge_delta.is_finite() && t.edge_delta >= 0.0) {
-            return Err(format!(
-                "--lambda {} and --edge-delta {} must be finite",
-                t.lambda, t.edge_delta
-            ));
-        }
         if let Some((a, b)) = self.frames {
             if a >= b {
                 return Err(format!("--frames {a}..{b} is empty"));
             }
         }
-        Ok(())
+        self.multirate.check()
     }
 
-    /// Every option by name, as recorded in results. Options added after goldens were first
-    /// keyed (the reuse thresholds) appear only when set away from their defaults, so the
-    /// options hash of every existing golden, ours and users', stays the same.
+    /// Every option by name (`multirate.` before a scheme family's own), as recorded in
+    /// results. Options added after goldens were first keyed appear only when set away from
+    /// their defaults, so the options hash of every existing golden, ours and users', stays.
     pub fn to_map(&self) -> BTreeMap<String, String> {
-        let mut m = BTreeMap::new();
-        let frames = self.frames.map_or("all".to_string(), |(a, b)| format!("{a}..{b}"));
-        let res = self.resolution.map_or("trace".to_string(), |(w, h)| format!("{w}x{h}"));
-        m.insert("frames".into(), frames);
-        m.insert("resolution".into(), res);
-        m.insert("tile".into(), self.tile.to_string());
-        m.insert("simd_width".into(), self.simd_width.to_string());
-        m.insert("texture_cache_kb".into(), self.texture_cache_kb.to_string());
-        m.insert("triangle_cache_kb".into(), self.triangle_cache_kb.to_string());
-        m.insert(
-            "framebuffer_cache_tiles".into(),
-            self.framebuffer_cache_tiles.to_string(),
-        );
-        m.insert("msaa".into(), self.msaa.to_string());
-        m.insert("shadow_map_size".into(), self.shadow_map_size.to_string());
-        m.insert("z_prepass".into(), self.z_prepass.to_string());
-        m.insert(
-            "scheduler".into(),
-            self.scheduler.clone().unwrap_or_else(|| "preset".into()),
-        );
-        m.insert("disparity_order".into(), self.disparity_order.to_string());
-        let mr = &self.multirate;
-        m.insert("multirate.cache_kb".into(), mr.cache_kb.to_string());
-        let t = &mr.thresholds;
-        m.insert(
-            "multirate.mode".into(),
-            mr.mode.map_or("preset".to_string(), |c| c.name().to_string()),
-        );
-        m.insert("multirate.sampling".into(), mr.sampling.name().into());
-        m.insert("multirate.small_triangle".into(), mr.small_triangle.to_string());
-        m.insert("multirate.schedule".into(), mr.schedule.name().into());
-        m.insert("multirate.threshold_scale".into(), mr.threshold_scale.to_string());
-        m.insert("multirate.t_diffuse".into(), t.diffuse.to_string());
-        m.insert("multirate.t_specular".into(), t.specular.to_string());
-        m.insert("multirate.t_shadow".into(), t.shadow.to_string());
-        m.insert("multirate.lambda".into(), t.lambda.to_string());
-        m.insert("multirate.edge_delta".into(), t.edge_delta.to_string());
-        let (reuse, default) = (mr.reuse, ReuseTest::default());
-        for (name, v, d) in [
-            ("position", reuse.position, default.position),
-            ("normal", reuse.normal, default.normal),
-            ("r_dot_l", reuse.r_dot_l, default.r_dot_l),
-        ] {
-            if v != d {
-                m.insert(format!("multirate.reuse_{name}"), v.to_string());
-            }
-        }
-        m
+        let mut map = BTreeMap::new();
+        let value = serde_json::to_value(self).expect("options serialize to JSON");
+        flatten("", &value, &mut map);
+        map
     }
 
     /// SHA-256 of the canonical `key=value\n` text of [`ReplayOptions::to_map`].
@@ -203,5 +133,74 @@ impl ReplayOptions {
             h.update(format!("{k}={v}\n"));
         }
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+/// Nested objects become dotted keys; values their text.
+fn flatten(prefix: &str, value: &Value, map: &mut BTreeMap<String, String>) {
+    match value {
+        Value::Object(fields) => {
+            for (k, v) in fields {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten(&key, v, map);
+            }
+        }
+        Value::String(s) => {
+            map.insert(prefix.to_string(), s.clone());
+        }
+        other => {
+            map.insert(prefix.to_string(), other.to_string());
+        }
+    }
+}
+
+/// Serializes a value as its `Display` text (floats as `0.002`, `1`, `inf`: JSON numbers
+/// would print `1.0` and lose infinity).
+pub fn display<T: Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(v)
+}
+
+fn frames_text<S: Serializer>(frames: &Option<(u32, u32)>, s: S) -> Result<S::Ok, S::Error> {
+    match frames {
+        Some((a, b)) => s.collect_str(&format_args!("{a}..{b}")),
+        None => s.serialize_str("all"),
+    }
+}
+
+fn resolution_text<S: Serializer>(res: &Option<(u32, u32)>, s: S) -> Result<S::Ok, S::Error> {
+    match res {
+        Some((w, h)) => s.collect_str(&format_args!("{w}x{h}")),
+        None => s.serialize_str("trace"),
+    }
+}
+
+fn scheduler_text<S: Serializer>(scheduler: &Option<String>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(scheduler.as_deref().unwrap_or("preset"))
+}
+
+pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("`{s}` is not WIDTHxHEIGHT"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}` is not START..END or N");
+    match s.split_once("..") {
+        Some((a, b)) => Ok((a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?)),
+        None => {
+            let n: u32 = s.parse().map_err(|_| bad())?;
+            Ok((n, n.saturating_add(1)))
+        }
     }
 }

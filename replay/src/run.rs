@@ -17,8 +17,8 @@ use crate::pipeline::{run_frame, PreparedScene};
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
 use crate::schedule::Scheduler;
+use crate::scheme::Effects;
 use crate::scheme::ShadingScheme;
-use crate::scheme::{REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
 
 /// A trace in memory, prepared for replay.
 pub struct LoadedTrace {
@@ -57,7 +57,7 @@ pub struct ViewImages {
     pub color: Rgba8Image,
     /// Issued shading instructions per pixel.
     pub cost_heat: Vec<u32>,
-    /// Per pixel, the effects refined to per-pixel rate (`scheme::REFINED_*` bits).
+    /// Per pixel, the effects refined to per-pixel rate (`Effects` bits).
     pub refinement: Vec<u8>,
 }
 
@@ -223,12 +223,12 @@ impl<'a> Replay<'a> {
                 self.total.min_ssim = Some(self.total.min_ssim.map_or(q, |m: f64| m.min(q)));
             }
             let refined_pixels = info.reports_refinement.then(|| {
-                let count = |bit: u8| view.refinement.iter().filter(|&&r| r & bit != 0).count() as u64;
+                let count = |e: Effects| view.refinement.iter().filter(|&&r| r & e.bits() != 0).count() as u64;
                 RefinedPixels {
-                    diffuse: count(REFINED_DIFFUSE),
-                    specular: count(REFINED_SPECULAR),
-                    shadow: count(REFINED_SHADOW),
-                    any: count(REFINED_DIFFUSE | REFINED_SPECULAR | REFINED_SHADOW),
+                    diffuse: count(Effects::DIFFUSE),
+                    specular: count(Effects::SPECULAR),
+                    shadow: count(Effects::SHADOW),
+                    any: count(Effects::all()),
                 }
             });
             views.push(ViewResult {

@@ -8,7 +8,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use shadetrace_formats::{LightKind, Material};
 
-use crate::cost::{BlockSet, LIGHT_DIFFUSE, LIGHT_LOCAL, LIGHT_SHADOW, LIGHT_SPECULAR};
+use crate::cost::{BlockSet, LightBlocks};
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
@@ -54,25 +54,17 @@ pub struct LightTerm {
     pub specular: f32,
 }
 
-/// Which effects [`ShaderEnv::light_terms`] evaluates; the others are left untouched.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Effects {
-    /// Lambert terms, and the falloff of local lights.
-    pub diffuse: bool,
-    pub specular: bool,
-    /// The shadowed light's visibility.
-    pub shadow: bool,
-}
-
-impl Effects {
-    pub const ALL: Effects = Effects {
-        diffuse: true,
-        specular: true,
-        shadow: true,
-    };
-
-    pub fn any(self) -> bool {
-        self.diffuse || self.specular || self.shadow
+bitflags::bitflags! {
+    /// The coarse-able effects: which ones [`ShaderEnv::light_terms`] evaluates (the others
+    /// are left untouched), which ones a multi-rate block refines to per-pixel rate, and the
+    /// bits of the per-pixel refinement maps.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct Effects: u8 {
+        /// Lambert terms, and the falloff of local lights.
+        const DIFFUSE = 1;
+        const SPECULAR = 2;
+        /// The shadowed light's visibility.
+        const SHADOW = 4;
     }
 }
 
@@ -83,11 +75,11 @@ impl ShaderEnv<'_> {
         let mut terms = [LightTerm::default(); 8];
         if self.lights.len() <= terms.len() {
             let terms = &mut terms[..self.lights.len()];
-            self.light_terms(inp, Effects::ALL, terms, blocks, log);
+            self.light_terms(inp, Effects::all(), terms, blocks, log);
             self.combine(terms)
         } else {
             let mut terms = vec![LightTerm::default(); self.lights.len()];
-            self.light_terms(inp, Effects::ALL, &mut terms, blocks, log);
+            self.light_terms(inp, Effects::all(), &mut terms, blocks, log);
             self.combine(&terms)
         }
     }
@@ -118,25 +110,25 @@ impl ShaderEnv<'_> {
                     let l = -direction.normalize_or(Vec3::NEG_Y);
                     let n_dot_l = n.dot(l);
                     let lit = n_dot_l > 0.0;
-                    if effects.diffuse {
-                        *flags |= LIGHT_DIFFUSE;
+                    if effects.contains(Effects::DIFFUSE) {
+                        *flags |= LightBlocks::DIFFUSE;
                         term.diffuse = if lit { n_dot_l } else { 0.0 };
                         if !light.shadowed {
                             term.scale = 1.0;
                         }
                     }
-                    if effects.specular {
+                    if effects.contains(Effects::SPECULAR) {
                         term.specular = if lit {
-                            *flags |= LIGHT_SPECULAR;
+                            *flags |= LightBlocks::SPECULAR;
                             material.specular_strength * phong(r.dot(l), material.specular_exponent)
                         } else {
                             0.0
                         };
                     }
-                    if effects.shadow && light.shadowed {
+                    if effects.contains(Effects::SHADOW) && light.shadowed {
                         term.scale = match self.shadow {
                             Some(map) if lit => {
-                                *flags |= LIGHT_SHADOW;
+                                *flags |= LightBlocks::SHADOW;
                                 map.pcf(inp.position, n_dot_l, log)
                             }
                             _ => 1.0,
@@ -144,7 +136,7 @@ impl ShaderEnv<'_> {
                     }
                 }
                 LightKind::Point { position, range } | LightKind::Spot { position, range, .. } => {
-                    if !(effects.diffuse || effects.specular) {
+                    if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
                         continue;
                     }
                     let to_light = position - inp.position;
@@ -160,10 +152,10 @@ impl ShaderEnv<'_> {
                         *term = LightTerm::default();
                         continue;
                     }
-                    *flags |= LIGHT_LOCAL;
+                    *flags |= LightBlocks::LOCAL;
                     let l = to_light.normalize_or(Vec3::Y);
                     let n_dot_l = n.dot(l).max(0.0);
-                    if effects.diffuse {
+                    if effects.contains(Effects::DIFFUSE) {
                         let cone = match light.kind {
                             LightKind::Spot {
                                 direction,
@@ -180,7 +172,7 @@ impl ShaderEnv<'_> {
                         term.scale = window * cone / d2.max(1e-4);
                         term.diffuse = n_dot_l;
                     }
-                    if effects.specular {
+                    if effects.contains(Effects::SPECULAR) {
                         term.specular = if n_dot_l > 0.0 {
                             material.specular_strength * phong(r.dot(l), material.specular_exponent)
                         } else {

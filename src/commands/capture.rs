@@ -26,7 +26,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.07)]
     ipd: f32,
     /// Per-eye resolution WIDTHxHEIGHT.
-    #[arg(long, default_value = "1280x1440", value_parser = super::replay_args::parse_resolution)]
+    #[arg(long, default_value = "1280x1440", value_parser = shadetrace_replay::options::parse_resolution)]
     res: (u32, u32),
     /// Vertical field of view in degrees (default: the camera's, the flythrough's, or 90).
     #[arg(long)]

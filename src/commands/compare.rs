@@ -8,7 +8,6 @@ use shadetrace_replay::{
 };
 
 use super::replay::{write_frame_images, write_results};
-use super::replay_args::ReplayArgs;
 use super::summary;
 use crate::progress;
 use crate::report::{write_html, ReportSection, TraceSummary};
@@ -22,7 +21,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     presets: Vec<String>,
     #[command(flatten)]
-    replay: ReplayArgs,
+    replay: ReplayOptions,
     /// Output directory.
     #[arg(long, default_value = "compare-out")]
     out: PathBuf,
@@ -93,7 +92,7 @@ pub fn run_presets(
 
 pub fn run(args: Args) -> Result<(), String> {
     let presets = preset_list(&args.presets)?;
-    let opts = args.replay.options();
+    let opts = args.replay.clone();
     opts.check()?;
     let trace = load_trace(&args.trace)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;

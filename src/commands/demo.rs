@@ -9,10 +9,10 @@ use shadetrace_formats::DEFAULT_ZSTD_LEVEL;
 use shadetrace_replay::{load_trace, ReplayOptions};
 
 use super::compare::{preset_list, run_presets};
-use super::replay_args::parse_resolution;
 use super::summary;
 use crate::output::write_atomically;
 use crate::report::{write_html, ReportSection, TraceSummary};
+use shadetrace_replay::options::parse_resolution;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -7,6 +7,5 @@ pub mod demo;
 pub mod info;
 pub mod presets;
 pub mod replay;
-pub mod replay_args;
 pub mod summary;
 pub mod sweep;

@@ -5,10 +5,9 @@ use std::path::{Path, PathBuf};
 use shadetrace_formats::results::RunResult;
 use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::images::{heat_map, robust_max, side_by_side};
-use shadetrace_replay::scheme::{REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
-use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, RunOutput, REFERENCE_PRESET};
+use shadetrace_replay::scheme::Effects;
+use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, ReplayOptions, RunOutput, REFERENCE_PRESET};
 
-use super::replay_args::ReplayArgs;
 use crate::output::write_atomically;
 use crate::progress;
 
@@ -20,7 +19,7 @@ pub struct Args {
     #[arg(long, default_value = REFERENCE_PRESET)]
     preset: String,
     #[command(flatten)]
-    replay: ReplayArgs,
+    replay: ReplayOptions,
     /// Output directory for results.json and images.
     #[arg(long, default_value = "replay-out")]
     out: PathBuf,
@@ -37,7 +36,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<(), String> {
     let preset = Preset::find(&args.preset)?;
-    let opts = args.replay.options();
+    let opts = args.replay.clone();
     opts.check()?;
     let trace = load_trace(&args.trace)?;
     preset.supports(&trace.prepared.scene)?;
@@ -95,11 +94,15 @@ pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> 
         .write_png(dir.join(format!("{stem}-{eye}-cost.png")))?;
         if refinement {
             for (bit, effect) in [
-                (REFINED_DIFFUSE, "diffuse"),
-                (REFINED_SPECULAR, "specular"),
-                (REFINED_SHADOW, "shadow"),
+                (Effects::DIFFUSE, "diffuse"),
+                (Effects::SPECULAR, "specular"),
+                (Effects::SHADOW, "shadow"),
             ] {
-                let refined: Vec<f32> = view.refinement.iter().map(|&r| f32::from(r & bit != 0)).collect();
+                let refined: Vec<f32> = view
+                    .refinement
+                    .iter()
+                    .map(|&r| f32::from(r & bit.bits() != 0))
+                    .collect();
                 let label = format!("{effect} refined per pixel");
                 heat_map(&refined, view.color.width, view.color.height, Some(1.0), &label)
                     .write_png(dir.join(format!("{stem}-{eye}-refine-{effect}.png")))?;

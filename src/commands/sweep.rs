@@ -5,9 +5,8 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use shadetrace_replay::{load_trace, replay_all, Preset};
+use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions};
 
-use super::replay_args::ReplayArgs;
 use crate::output::write_atomically;
 use crate::progress;
 use crate::report::svg::cost_quality_scatter;
@@ -23,7 +22,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', default_value = "0,0.25,0.5,1,2,4,16,inf")]
     scales: Vec<f32>,
     #[command(flatten)]
-    replay: ReplayArgs,
+    replay: ReplayOptions,
     /// Output directory for sweep.csv and sweep.svg.
     #[arg(long, default_value = "sweep-out")]
     out: PathBuf,
@@ -40,7 +39,7 @@ pub fn run(args: Args) -> Result<(), String> {
             args.preset
         ));
     }
-    let base = args.replay.options();
+    let base = args.replay.clone();
     base.check()?;
     let trace = load_trace(&args.trace)?;
     let runs: Vec<_> = args

@@ -95,7 +95,7 @@ pub struct ViewOutput {
     pub pixels: Vec<[u8; 4]>,
     /// Issued instructions per pixel (every SIMD group adds its count to each of its lanes).
     pub cost_heat: Vec<u32>,
-    /// Per pixel, the union of `REFINED_*` bits over its fragments (multi-rate schemes).
+    /// Per pixel, the union of `Effects` bits over its fragments (multi-rate schemes).
     pub refinement: Vec<u8>,
     pub cache: ShadingCacheStats,
 }

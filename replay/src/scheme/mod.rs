@@ -101,16 +101,14 @@ pub struct Accounting<'a> {
     pub log: &'a mut AccessLog,
     /// Per-pixel cost heat: `(pixel id, instructions)`.
     pub heat: &'a mut dyn FnMut(u32, u32),
-    /// Effects refined to per-pixel rate: `(pixel id, REFINED_* bits)`.
+    /// Effects refined to per-pixel rate: `(pixel id, Effects bits)`.
     pub refinement: &'a mut dyn FnMut(u32, u8),
     /// Shading-cache activity of the unit's view.
     pub cache: &'a mut ShadingCacheStats,
 }
 
 /// Refinement bits reported per pixel (heat maps of Fig. 5/13 of He et al.).
-pub const REFINED_DIFFUSE: u8 = 1;
-pub const REFINED_SPECULAR: u8 = 2;
-pub const REFINED_SHADOW: u8 = 4;
+pub use crate::shader::Effects;
 
 /// The passes a scheme runs over the scheduler's geometry.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -113,11 +113,7 @@ mod tests {
             normal: Vec3::Y,
             r_dot_l: vec![0.0],
             terms: vec![LightTerm::default()],
-            refine: Effects {
-                diffuse: false,
-                specular: false,
-                shadow: false,
-            },
+            refine: Effects::empty(),
             view: 0,
         }
     }

@@ -4,7 +4,6 @@
 
 use glam::Vec2;
 
-use super::predicates::NONE;
 use super::MultirateJob;
 use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
 use crate::shader::{Effects, LightTerm};
@@ -35,7 +34,7 @@ impl CoarseBlock {
             coverage: 0,
             samples: [Vec2::ZERO; 4],
             terms: Vec::new(),
-            refine: NONE,
+            refine: Effects::empty(),
             first_lane: 0,
         }
     }

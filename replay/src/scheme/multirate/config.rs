@@ -1,36 +1,30 @@
 //! Configuration of multi-rate shading: coarse rate, sample placement, SIMD schedule and
 //! refinement thresholds of He et al. (2014), and the shading cache of the tile-pair and
-//! object-space schemes, with their defaults and command-line names.
+//! object-space schemes, with their defaults (written once, in the `DEFAULT_*` constants),
+//! command-line flags and names in the options map.
+
+use serde::Serialize;
+
+use crate::options::display;
+use crate::scheme::shading_cache::DEFAULT_CACHE_BYTES;
 
 /// Coarse shading rate (§3.1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
 pub enum CoarseMode {
+    #[value(name = "2x2")]
+    #[serde(rename = "2x2")]
     Coarse2x2,
+    #[value(name = "4x4")]
+    #[serde(rename = "4x4")]
     Coarse4x4,
+    #[value(name = "dynamic")]
+    #[serde(rename = "dynamic")]
     Dynamic4x4,
 }
 
-impl CoarseMode {
-    pub fn parse(s: &str) -> Result<CoarseMode, String> {
-        match s {
-            "2x2" => Ok(CoarseMode::Coarse2x2),
-            "4x4" => Ok(CoarseMode::Coarse4x4),
-            "dynamic" => Ok(CoarseMode::Dynamic4x4),
-            _ => Err(format!("coarse mode `{s}`: expected 2x2, 4x4 or dynamic")),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            CoarseMode::Coarse2x2 => "2x2",
-            CoarseMode::Coarse4x4 => "4x4",
-            CoarseMode::Dynamic4x4 => "dynamic",
-        }
-    }
-}
-
 /// Where a block's four coarse samples sit (§3.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Sampling {
     /// Centres of the four coarse fragments.
     StaticCenter,
@@ -40,29 +34,9 @@ pub enum Sampling {
     CoverageBbox,
 }
 
-impl Sampling {
-    pub fn parse(s: &str) -> Result<Sampling, String> {
-        match s {
-            "static-center" => Ok(Sampling::StaticCenter),
-            "static-corner" => Ok(Sampling::StaticCorner),
-            "coverage-bbox" => Ok(Sampling::CoverageBbox),
-            _ => Err(format!(
-                "sampling `{s}`: expected static-center, static-corner or coverage-bbox"
-            )),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Sampling::StaticCenter => "static-center",
-            Sampling::StaticCorner => "static-corner",
-            Sampling::CoverageBbox => "coverage-bbox",
-        }
-    }
-}
-
 /// How coarse and fine work is packed into SIMD groups (§3.3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum SimdSchedule {
     /// One lane per coarse fragment runs its coarse work, then its fine fragments in turn.
     SingleThread,
@@ -72,51 +46,47 @@ pub enum SimdSchedule {
     TwoPhaseSorted,
 }
 
-impl SimdSchedule {
-    pub fn parse(s: &str) -> Result<SimdSchedule, String> {
-        match s {
-            "single-thread" => Ok(SimdSchedule::SingleThread),
-            "two-phase" => Ok(SimdSchedule::TwoPhase),
-            "two-phase-sorted" => Ok(SimdSchedule::TwoPhaseSorted),
-            _ => Err(format!(
-                "SIMD schedule `{s}`: expected single-thread, two-phase or two-phase-sorted"
-            )),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            SimdSchedule::SingleThread => "single-thread",
-            SimdSchedule::TwoPhase => "two-phase",
-            SimdSchedule::TwoPhaseSorted => "two-phase-sorted",
-        }
-    }
-}
-
 /// Refinement thresholds; 0 refines unconditionally, infinity never refines.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, clap::Args, Serialize)]
 pub struct Thresholds {
-    /// Variation of N·L across the block's samples (§4.1).
+    /// Diffuse refinement threshold: variation of N·L across the block's samples (§4.1;
+    /// 0 = always, inf = never).
+    #[arg(long = "t-diffuse", default_value_t = DEFAULT_THRESHOLDS.diffuse)]
+    #[serde(rename = "t_diffuse", serialize_with = "display")]
     pub diffuse: f32,
-    /// Flatness `1 - min(N_i · N_avg)` above which the reflection-cone test runs (§4.1).
+    /// Specular flatness threshold `1 - min(N_i · N_avg)` above which the reflection-cone
+    /// test runs (§4.1; 0 = always refine, inf = never).
+    #[arg(long = "t-specular", default_value_t = DEFAULT_THRESHOLDS.specular)]
+    #[serde(rename = "t_specular", serialize_with = "display")]
     pub specular: f32,
-    /// Cone enlargement λ: refine when `L · R_avg >= λ min(R_i · R_avg)`.
+    /// Reflection-cone enlargement λ of the specular predicate: refine when
+    /// `L · R_avg >= λ min(R_i · R_avg)`.
+    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.lambda)]
+    #[serde(serialize_with = "display")]
     pub lambda: f32,
-    /// Occlusion difference across the block's samples (§4.2).
+    /// Shadow occlusion-difference threshold across the block's samples (§4.2; 0 = always
+    /// refine, inf = never).
+    #[arg(long = "t-shadow", default_value_t = DEFAULT_THRESHOLDS.shadow)]
+    #[serde(rename = "t_shadow", serialize_with = "display")]
     pub shadow: f32,
-    /// Edge-receiver threshold δ on the negative second depth derivative, map depth units.
+    /// Edge-receiver threshold δ on the shadow map's negative second depth derivative (map
+    /// depth units).
+    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.edge_delta)]
+    #[serde(serialize_with = "display")]
     pub edge_delta: f32,
 }
 
+pub const DEFAULT_THRESHOLDS: Thresholds = Thresholds {
+    diffuse: 0.1,
+    specular: 0.002,
+    lambda: 0.9,
+    shadow: 0.05,
+    edge_delta: 0.002,
+};
+
 impl Default for Thresholds {
     fn default() -> Self {
-        Thresholds {
-            diffuse: 0.1,
-            specular: 0.002,
-            lambda: 0.9,
-            shadow: 0.05,
-            edge_delta: 0.002,
-        }
+        DEFAULT_THRESHOLDS
     }
 }
 
@@ -167,24 +137,146 @@ pub struct CacheConfig {
 }
 
 /// Thresholds of the tile-pair reuse shader (Algorithm 2's THRESHOLD0..2, which the paper
-/// leaves open): looser reuses more and costs quality, mostly in the right view.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// leaves open): looser reuses more and costs quality, mostly in the right view. They were
+/// added after goldens were first keyed, so they enter the options map only when set away
+/// from their defaults.
+#[derive(Clone, Copy, Debug, PartialEq, clap::Args, Serialize)]
 pub struct ReuseTest {
-    /// Largest position difference, as a fraction of the distance to the eye.
+    /// Tile-pair reuse test: largest position difference, as a fraction of the eye distance.
+    #[arg(long = "reuse-position", default_value_t = DEFAULT_REUSE.position)]
+    #[serde(
+        rename = "reuse_position",
+        serialize_with = "display",
+        skip_serializing_if = "default_position"
+    )]
     pub position: f32,
-    /// Largest difference of unit normals.
+    /// Tile-pair reuse test: largest difference of unit normals.
+    #[arg(long = "reuse-normal", default_value_t = DEFAULT_REUSE.normal)]
+    #[serde(
+        rename = "reuse_normal",
+        serialize_with = "display",
+        skip_serializing_if = "default_normal"
+    )]
     pub normal: f32,
-    /// Largest difference of `R · L` between the views (cross-view reuse only).
+    /// Tile-pair reuse test: largest difference of R·L between the views (cross-view hits).
+    #[arg(long = "reuse-r-dot-l", default_value_t = DEFAULT_REUSE.r_dot_l)]
+    #[serde(
+        rename = "reuse_r_dot_l",
+        serialize_with = "display",
+        skip_serializing_if = "default_r_dot_l"
+    )]
     pub r_dot_l: f32,
 }
 
+pub const DEFAULT_REUSE: ReuseTest = ReuseTest {
+    position: 0.01,
+    normal: 0.1,
+    r_dot_l: 0.05,
+};
+
 impl Default for ReuseTest {
     fn default() -> Self {
-        ReuseTest {
-            position: 0.01,
-            normal: 0.1,
-            r_dot_l: 0.05,
+        DEFAULT_REUSE
+    }
+}
+
+fn default_position(v: &f32) -> bool {
+    *v == DEFAULT_REUSE.position
+}
+
+fn default_normal(v: &f32) -> bool {
+    *v == DEFAULT_REUSE.normal
+}
+
+fn default_r_dot_l(v: &f32) -> bool {
+    *v == DEFAULT_REUSE.r_dot_l
+}
+
+/// The options of the multi-rate family (`multirate`, `tile-pair-cache`, `amfs`, `texel`).
+/// Other schemes ignore them, but they are part of every options hash so that a golden never
+/// matches a run made with other thresholds.
+#[derive(Clone, Debug, PartialEq, clap::Args, Serialize)]
+pub struct MultirateOptions {
+    /// Multi-rate coarse mode, overriding the preset's.
+    #[arg(long = "coarse-mode", value_enum)]
+    #[serde(serialize_with = "or_preset")]
+    pub mode: Option<CoarseMode>,
+    /// Multi-rate sample placement in screen blocks (multirate, tile-pair-cache); amfs and
+    /// texel shade lattice corners.
+    #[arg(long, value_enum, default_value_t = DEFAULT_MULTIRATE.sampling)]
+    pub sampling: Sampling,
+    /// Disable the small-triangle optimization of screen-block multi-rate shading
+    /// (multirate, tile-pair-cache; amfs and texel have no such path).
+    #[arg(long = "no-small-triangle", action = clap::ArgAction::SetFalse)]
+    pub small_triangle: bool,
+    #[command(flatten)]
+    #[serde(flatten)]
+    pub thresholds: Thresholds,
+    /// Multiplies the diffuse, specular and shadow thresholds (0 = refine all, inf = none).
+    #[arg(long, default_value_t = DEFAULT_MULTIRATE.threshold_scale)]
+    #[serde(serialize_with = "display")]
+    pub threshold_scale: f32,
+    /// Multi-rate SIMD schedule.
+    #[arg(long = "simd-schedule", value_enum, default_value_t = DEFAULT_MULTIRATE.schedule)]
+    pub schedule: SimdSchedule,
+    /// Shading-cache size of tile-pair-cache, amfs and texel in KiB per job (an epipolar
+    /// tile row under tile-pair; 0 = no reuse).
+    #[arg(long, default_value_t = DEFAULT_MULTIRATE.cache_kb)]
+    pub cache_kb: u32,
+    #[command(flatten)]
+    #[serde(flatten)]
+    pub reuse: ReuseTest,
+}
+
+pub const DEFAULT_MULTIRATE: MultirateOptions = MultirateOptions {
+    mode: None,
+    sampling: Sampling::CoverageBbox,
+    small_triangle: true,
+    thresholds: DEFAULT_THRESHOLDS,
+    threshold_scale: 1.0,
+    schedule: SimdSchedule::TwoPhase,
+    cache_kb: DEFAULT_CACHE_BYTES / 1024,
+    reuse: DEFAULT_REUSE,
+};
+
+impl Default for MultirateOptions {
+    fn default() -> Self {
+        DEFAULT_MULTIRATE
+    }
+}
+
+impl MultirateOptions {
+    /// Checks ranges; the message names the flag.
+    pub fn check(&self) -> Result<(), String> {
+        let t = &self.thresholds;
+        for (name, v) in [
+            ("--t-diffuse", t.diffuse),
+            ("--t-specular", t.specular),
+            ("--t-shadow", t.shadow),
+            ("--threshold-scale", self.threshold_scale),
+            ("--reuse-position", self.reuse.position),
+            ("--reuse-normal", self.reuse.normal),
+            ("--reuse-r-dot-l", self.reuse.r_dot_l),
+        ] {
+            if v.is_nan() || v < 0.0 {
+                return Err(format!("{name} {v} must be a non-negative number (inf allowed)"));
+            }
         }
+        if !(t.lambda.is_finite() && t.edge_delta.is_finite() && t.edge_delta >= 0.0) {
+            return Err(format!(
+                "--lambda {} and --edge-delta {} must be finite",
+                t.lambda, t.edge_delta
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The coarse mode's name, or `preset` when the preset decides.
+fn or_preset<S: serde::Serializer>(mode: &Option<CoarseMode>, s: S) -> Result<S::Ok, S::Error> {
+    match mode {
+        Some(m) => m.serialize(s),
+        None => s.serialize_str("preset"),
     }
 }
 
@@ -194,7 +286,7 @@ impl Default for MultirateConfig {
             mode: CoarseMode::Coarse2x2,
             sampling: Sampling::CoverageBbox,
             small_triangle: true,
-            thresholds: Thresholds::default(),
+            thresholds: DEFAULT_THRESHOLDS,
             schedule: SimdSchedule::TwoPhase,
             cache: None,
         }

@@ -12,7 +12,7 @@
 //! summation order as `per-pixel`, so the image is bit-identical to the reference.
 
 mod block;
-mod config;
+pub mod config;
 mod issue;
 mod object_space;
 mod predicates;
@@ -31,7 +31,6 @@ use crate::shader::{compose, Effects, LightTerm, LightingInputs};
 use block::{sample_attributes, CoarseBlock};
 pub use config::{CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds};
 use object_space::{CellBlock, LaneSource};
-use predicates::{effects_bits, NONE};
 
 pub struct Multirate(pub MultirateConfig);
 
@@ -214,7 +213,7 @@ impl MultirateJob {
             // Refined 4x4 blocks are re-shaded at 2x2; their first coarse pass still counts.
             let mut kept = Vec::with_capacity(blocks.len());
             for b in blocks.drain(..) {
-                if !b.refine.any() {
+                if b.refine.is_empty() {
                     kept.push(b);
                     continue;
                 }
@@ -320,7 +319,7 @@ impl MultirateJob {
             }
         }
         b.refine = if exact {
-            NONE
+            Effects::empty()
         } else {
             self.predicates(ctx, b, &positions, &normals)
         };
@@ -348,7 +347,7 @@ impl MultirateJob {
                 eye: ctx.eye,
                 material: ctx.triangle.material,
             },
-            Effects::ALL,
+            Effects::all(),
             terms,
             &mut self.coarse_lanes[lane].blocks,
             log,
@@ -403,7 +402,7 @@ impl MultirateJob {
             let (block, w, coarse_lane) = sources[l];
             let b = &self.blocks[block];
             let refine = b.refine;
-            let key = effects_bits(refine);
+            let key = refine.bits();
             for (k, term) in self.terms.iter_mut().enumerate() {
                 let s = |i: usize| b.terms[i * self.lights + k];
                 let mix =
@@ -417,7 +416,7 @@ impl MultirateJob {
             let f = self.fine_lane();
             let lane_blocks = &mut self.fine_lanes[f].blocks;
             lane_blocks.take(Block::Resample);
-            if refine.any() {
+            if !refine.is_empty() {
                 let inputs = LightingInputs {
                     position: lane.position,
                     normal: lane.normal,

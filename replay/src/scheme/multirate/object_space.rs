@@ -20,13 +20,13 @@ use glam::{Mat2, Vec2, Vec3};
 
 use super::block::CoarseBlock;
 use super::config::{CacheSpace, CoarseMode};
-use super::predicates::NONE;
 use super::MultirateJob;
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
 use crate::raster::pixel_center;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
 use crate::scheme::{ShadeQuad, UnitContext};
+use crate::shader::Effects;
 
 /// Coarsest lattice level (a cell spans 2^16 parameter units).
 const MIN_LEVEL: i32 = -16;
@@ -218,7 +218,7 @@ impl MultirateJob {
         if self.config.mode == CoarseMode::Dynamic4x4 {
             for (sources, quad_levels) in self.sources.iter().zip(&mut levels) {
                 for (source, level) in sources.iter().zip(quad_levels) {
-                    if self.blocks[source.block].refine.any() {
+                    if !self.blocks[source.block].refine.is_empty() {
                         *level = (*level + 1).min(frame.max_level);
                     }
                 }
@@ -332,7 +332,7 @@ impl MultirateJob {
                         normal: normals[i],
                         r_dot_l: Vec::new(),
                         terms: b.terms[i * n..(i + 1) * n].to_vec(),
-                        refine: NONE,
+                        refine: Effects::empty(),
                         view: ctx.view,
                     },
                 );

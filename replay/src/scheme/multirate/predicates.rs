@@ -10,29 +10,9 @@ use super::block::CoarseBlock;
 use super::config::Thresholds;
 use super::MultirateJob;
 use crate::cost_table::Block;
-use crate::scheme::{UnitContext, REFINED_DIFFUSE, REFINED_SHADOW, REFINED_SPECULAR};
+use crate::scheme::UnitContext;
 use crate::shader::Effects;
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
-
-pub(super) const NONE: Effects = Effects {
-    diffuse: false,
-    specular: false,
-    shadow: false,
-};
-
-pub(super) fn union(a: Effects, b: Effects) -> Effects {
-    Effects {
-        diffuse: a.diffuse || b.diffuse,
-        specular: a.specular || b.specular,
-        shadow: a.shadow || b.shadow,
-    }
-}
-
-pub(super) fn effects_bits(e: Effects) -> u8 {
-    (if e.diffuse { REFINED_DIFFUSE } else { 0 })
-        | (if e.specular { REFINED_SPECULAR } else { 0 })
-        | (if e.shadow { REFINED_SHADOW } else { 0 })
-}
 
 fn min_max(v: impl Iterator<Item = f32>) -> (f32, f32) {
     v.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)))
@@ -96,11 +76,11 @@ impl MultirateJob {
                 self.coarse_lanes[lane].blocks.take(block);
             }
         }
-        Effects {
-            diffuse,
-            specular,
-            shadow,
-        }
+        let mut refine = Effects::empty();
+        refine.set(Effects::DIFFUSE, diffuse);
+        refine.set(Effects::SPECULAR, specular);
+        refine.set(Effects::SHADOW, shadow);
+        refine
     }
 }
 

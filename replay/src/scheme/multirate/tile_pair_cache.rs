@@ -7,7 +7,6 @@ use glam::Vec3;
 use shadetrace_formats::LightKind;
 
 use super::block::CoarseBlock;
-use super::predicates::{union, NONE};
 use super::MultirateJob;
 use crate::cost_table::Block;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
@@ -123,7 +122,7 @@ impl MultirateJob {
                     });
                     let weights = [(1.0 - fu) * (1.0 - fv), fu * (1.0 - fv), (1.0 - fu) * fv, fu * fv];
                     let mut mixed = vec![LightTerm::default(); n];
-                    let mut refine = NONE;
+                    let mut refine = Effects::empty();
                     let mut complete = true;
                     for (key, w) in corners.iter().zip(weights) {
                         match cache.get(key) {
@@ -133,7 +132,7 @@ impl MultirateJob {
                                     m.diffuse += w * t.diffuse;
                                     m.specular += w * t.specular;
                                 }
-                                refine = union(refine, c.refine);
+                                refine |= c.refine;
                             }
                             _ => complete = false,
                         }
@@ -148,11 +147,11 @@ impl MultirateJob {
         let all = reused.iter().all(Option::is_some);
         if all {
             cache.counters.blocks_skipped += 1;
-            let mut refine = NONE;
+            let mut refine = Effects::empty();
             for (i, r) in reused.into_iter().enumerate() {
                 let (terms, flags) = r.expect("all four reused");
                 b.terms[i * n..(i + 1) * n].copy_from_slice(&terms);
-                refine = union(refine, flags);
+                refine |= flags;
             }
             b.refine = refine;
         } else {
