@@ -1,77 +1,79 @@
-//! `cargo bench`: the reference replay (forward), sort-middle and the multi-rate schemes
-//! (he-2x2, tile-pair, amfs, texel) at the paper resolution, 1280x1440 per eye, on the
-//! floor, spheres and hairball scenes. Prints shaded pixels per second and milliseconds per
-//! stereo frame. Speed targets live here, never in tests. `SHADETRACE_BENCH_PRESETS`
-//! (comma-separated) picks other presets.
+//! `cargo bench`: one stereo frame at the paper resolution, 1280x1440 per eye, of the
+//! reference (forward), sort-middle and the multi-rate schemes (he-2x2, tile-pair, amfs,
+//! texel) on the floor, spheres and hairball scenes. divan reports time per frame and
+//! pixels per second (both eyes). Speed targets live here, never in tests; compare against
+//! Mesa's llvmpipe with `../shared/anchors/llvmpipe/`.
 //!
-//! A plain harness (no criterion): each measurement is one full stereo frame, repeated
-//! `SHADETRACE_BENCH_REPS` times (default 3), best time reported.
+//! divan (not criterion): a small build on 2 cores (it reuses clap) and per-argument
+//! sample counts, so a one-second frame is timed three times rather than for a fixed
+//! measurement window. Filter as usual: `cargo bench -- spheres`.
 
-use std::time::Instant;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::sync::{Mutex, OnceLock};
 
+use divan::counter::ItemsCount;
+use divan::Bencher;
 use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_replay::{pipeline::PreparedScene, replay_all, LoadedTrace, Preset, ReplayOptions};
 
 fn main() {
-    let reps: usize = std::env::var("SHADETRACE_BENCH_REPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(3);
-    let presets: Vec<String> = std::env::var("SHADETRACE_BENCH_PRESETS")
-        .unwrap_or_else(|_| "forward,sort-middle,he-2x2,tile-pair,amfs,texel".into())
-        .split(',')
-        .map(str::to_owned)
-        .collect();
-    println!("threads: {}", rayon::current_num_threads());
-    println!(
-        "{:<10} {:<12} {:>10} {:>14} {:>16}",
-        "scene", "preset", "ms/frame", "Mpixels/s", "Mshaded frag/s"
-    );
-    for scene in ["floor", "spheres", "hairball"] {
-        let captured = capture(
-            &Input::Builtin(scene.into()),
-            &CaptureOptions::default(),
-            &mut |_, _| {},
-        )
-        .unwrap();
+    divan::main();
+}
+
+/// A scene and a preset; texel runs only where the scene has a unique UV atlas (spheres).
+#[derive(Clone, Copy)]
+struct Case(&'static str, &'static str);
+
+impl fmt::Display for Case {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "{}/{}", self.0, self.1)
+    }
+}
+
+const CASES: [Case; 16] = [
+    Case("floor", "forward"),
+    Case("floor", "sort-middle"),
+    Case("floor", "he-2x2"),
+    Case("floor", "tile-pair"),
+    Case("floor", "amfs"),
+    Case("spheres", "forward"),
+    Case("spheres", "sort-middle"),
+    Case("spheres", "he-2x2"),
+    Case("spheres", "tile-pair"),
+    Case("spheres", "amfs"),
+    Case("spheres", "texel"),
+    Case("hairball", "forward"),
+    Case("hairball", "sort-middle"),
+    Case("hairball", "he-2x2"),
+    Case("hairball", "tile-pair"),
+    Case("hairball", "amfs"),
+];
+
+/// Captured once per scene (capture is not what is measured).
+fn trace(scene: &'static str) -> &'static LoadedTrace {
+    static TRACES: OnceLock<Mutex<BTreeMap<&'static str, &'static LoadedTrace>>> = OnceLock::new();
+    let mut traces = TRACES.get_or_init(Default::default).lock().unwrap();
+    traces.entry(scene).or_insert_with(|| {
+        let captured = capture(&Input::Builtin(scene.into()), &CaptureOptions::default(), &mut |_, _| {})
+            .unwrap_or_else(|e| panic!("{scene}: {e}"));
         let (_, hash) = captured.write(std::io::sink(), 1).unwrap();
-        let trace = LoadedTrace {
+        Box::leak(Box::new(LoadedTrace {
             name: scene.into(),
             hash,
             meta: captured.meta.clone(),
             prepared: PreparedScene::new(captured.scene.clone()),
-            frames: captured.frames.clone(),
-        };
-        for name in &presets {
-            let preset = Preset::find(name).unwrap_or_else(|e| panic!("{e}"));
-            let opts = ReplayOptions::default();
-            let mut best = f64::INFINITY;
-            let mut shaded = 0;
-            for _ in 0..reps {
-                let t = Instant::now();
-                let out = match replay_all(&trace, &[(preset, opts.clone())], None, &mut |_, _| Ok(()), &mut |_| {}) {
-                    Ok(mut runs) => runs.remove(0),
-                    // texel refuses a scene without a unique UV atlas.
-                    Err(e) => {
-                        println!("{scene:<10} {name:<12} skipped: {e}");
-                        break;
-                    }
-                };
-                best = best.min(t.elapsed().as_secs_f64());
-                shaded = out.result.total.shaded_pixels;
-            }
-            if best.is_infinite() {
-                continue;
-            }
-            let pixels = 2.0 * 1280.0 * 1440.0;
-            println!(
-                "{:<10} {:<12} {:>10.1} {:>14.2} {:>16.2}",
-                scene,
-                preset.name,
-                best * 1e3,
-                pixels / best / 1e6,
-                shaded as f64 / best / 1e6
-            );
-        }
-    }
+            frames: vec![captured.frames[0].clone()],
+        }))
+    })
+}
+
+#[divan::bench(args = CASES, sample_count = 3, sample_size = 1)]
+fn stereo_frame(bencher: Bencher, case: Case) {
+    let trace = trace(case.0);
+    let preset = Preset::find(case.1).unwrap_or_else(|e| panic!("{e}"));
+    let runs = [(preset, ReplayOptions::default())];
+    bencher
+        .counter(ItemsCount::new(2 * 1280 * 1440usize))
+        .bench(|| replay_all(trace, &runs, None, &mut |_, _| Ok(()), &mut |_| {}).unwrap());
 }
