@@ -55,8 +55,12 @@ fn trace(scene: &'static str) -> &'static LoadedTrace {
     static TRACES: OnceLock<Mutex<BTreeMap<&'static str, &'static LoadedTrace>>> = OnceLock::new();
     let mut traces = TRACES.get_or_init(Default::default).lock().unwrap();
     traces.entry(scene).or_insert_with(|| {
-        let captured = capture(&Input::Builtin(scene.into()), &CaptureOptions::default(), &mut |_, _| {})
-            .unwrap_or_else(|e| panic!("{scene}: {e}"));
+        let captured = capture(
+            &Input::Builtin(scene.into()),
+            &CaptureOptions::default(),
+            &mut |_, _| {},
+        )
+        .unwrap_or_else(|e| panic!("{scene}: {e}"));
         let (_, hash) = captured.write(std::io::sink(), 1).unwrap();
         Box::leak(Box::new(LoadedTrace {
             name: scene.into(),

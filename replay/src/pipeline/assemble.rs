@@ -11,7 +11,13 @@ use crate::bins::TileGrid;
 /// Heat and refinement maps key pixels as `view << 30 | y * width + x`.
 const PIXEL_BITS: u32 = 30;
 
-pub fn view(v: usize, vertex: VertexStats, grid: TileGrid, simd_width: u32, outputs: &[JobOutput]) -> ViewOutput {
+pub fn view<'a>(
+    v: usize,
+    vertex: VertexStats,
+    grid: TileGrid,
+    simd_width: u32,
+    outputs: impl IntoIterator<Item = &'a JobOutput>,
+) -> ViewOutput {
     let (width, height) = (grid.width, grid.height);
     let mut pixels = vec![clear_pixel(); (width * height) as usize];
     let mut cost_heat = vec![0u32; (width * height) as usize];

@@ -35,6 +35,8 @@ pub struct JobContext<'a> {
     pub simd_width: u32,
     /// A depth pre-pass ran first: later passes test for equal depth and write none.
     pub z_prepass: bool,
+    /// Keep tile buffers after the resolve (a view pass reads them).
+    pub keep_buffers: bool,
 }
 
 /// Everything a job produced; per-view arrays are indexed by view.
@@ -47,11 +49,13 @@ pub struct JobOutput {
     pub heat: BTreeMap<u32, u32>,
     pub refinement: BTreeMap<u32, u8>,
     pub cache: [ShadingCacheStats; 2],
+    /// The tile buffers themselves, kept when a view pass reads the finished view.
+    pub buffers: Vec<TileBuffer>,
 }
 
 impl JobContext<'_> {
     /// What passes over view `view` may read.
-    fn view(&self, view: u8) -> ViewContext<'_> {
+    pub fn view(&self, view: u8) -> ViewContext<'_> {
         ViewContext {
             view,
             eye: self.eyes[view as usize],
@@ -66,9 +70,22 @@ impl JobContext<'_> {
 }
 
 impl JobOutput {
+    pub fn new(simd_width: u32) -> JobOutput {
+        JobOutput {
+            logs: Vec::new(),
+            raster: [RasterStats::default(); 2],
+            cost: [ShadingCost::new(simd_width), ShadingCost::new(simd_width)],
+            tiles: Vec::new(),
+            heat: BTreeMap::new(),
+            refinement: BTreeMap::new(),
+            cache: [ShadingCacheStats::default(); 2],
+            buffers: Vec::new(),
+        }
+    }
+
     /// Runs `f` with the accounting of view `v`: its cost, the command's log, the job's heat
     /// and refinement maps and its cache statistics.
-    fn account<R>(&mut self, v: usize, log: &mut AccessLog, f: impl FnOnce(&mut Accounting) -> R) -> R {
+    pub fn account<R>(&mut self, v: usize, log: &mut AccessLog, f: impl FnOnce(&mut Accounting) -> R) -> R {
         let heat = &mut self.heat;
         let refinement = &mut self.refinement;
         f(&mut Accounting {
@@ -92,15 +109,7 @@ struct Scratch {
 pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
     let mut buffers: BTreeMap<(u8, u32), TileBuffer> = BTreeMap::new();
-    let mut out = JobOutput {
-        logs: Vec::with_capacity(job.commands.len()),
-        raster: [RasterStats::default(); 2],
-        cost: [ShadingCost::new(ctx.simd_width), ShadingCost::new(ctx.simd_width)],
-        tiles: Vec::new(),
-        heat: BTreeMap::new(),
-        refinement: BTreeMap::new(),
-        cache: [ShadingCacheStats::default(); 2],
-    };
+    let mut out = JobOutput::new(ctx.simd_width);
     let mut scratch = Scratch::default();
     for (index, command) in job.commands.iter().enumerate() {
         let log = match *command {
@@ -122,6 +131,9 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
         out.logs.push((index, log));
     }
     out.tiles = buffers.values().map(resolve).collect();
+    if ctx.keep_buffers {
+        out.buffers = buffers.into_values().collect();
+    }
     out
 }
 

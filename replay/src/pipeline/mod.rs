@@ -12,6 +12,7 @@ mod blend;
 mod job;
 mod resolve;
 mod tile_buffer;
+mod view_pass;
 
 use rayon::prelude::*;
 use shadetrace_formats::results::{
@@ -33,6 +34,7 @@ use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
 use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
 pub use tile_buffer::{depth_passes, TileBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+pub use view_pass::{ViewFrame, WORK_CHUNK};
 
 /// Scene data prepared once per trace: mip chains and lights.
 pub struct PreparedScene {
@@ -142,7 +144,15 @@ pub fn run_frame(
         shadow: shadow.as_ref(),
         receivers: receivers.as_ref(),
     };
+    // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
+    let derived = scheme.view_pass();
     let views: [ViewSetup; 2] = Eye::BOTH.map(|eye| {
+        if derived.is_some_and(|p| p.to != p.from && p.to as usize == eye as usize) {
+            return ViewSetup {
+                triangles: Vec::new(),
+                stats: VertexStats::default(),
+            };
+        }
         let (triangles, stats) = setup_view(
             &geometry,
             &prepared.double_sided,
@@ -173,22 +183,43 @@ pub fn run_frame(
         offsets: sample_offsets(opts.msaa),
         simd_width: opts.simd_width,
         z_prepass: opts.z_prepass,
+        keep_buffers: derived.is_some(),
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
+    let derived = derived.map(|pass| {
+        let budget = (prepared.lights.len(), opts.simd_width);
+        (
+            pass,
+            view_pass::run(pass, scheme, ctx.view(pass.to), ctx.offsets.len(), budget, &outputs),
+        )
+    });
     let sizes = CacheSizes {
         depth: layout.depth_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
         color: layout.color_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
     };
-    let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs);
+    let passes = derived.as_ref().map(|(_, made)| made.outputs.as_slice());
+    let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
     traffic.add_bytes(INDICES, schedule.lists.index_bytes);
     if scheduler.stores_vertex_output() {
         traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
     }
     let [left, right] = views;
-    let views =
-        [(0, left), (1, right)].map(|(v, setup)| assemble::view(v, setup.stats, grid, opts.simd_width, &outputs));
+    let views = [(0, left), (1, right)].map(|(v, setup)| match &derived {
+        Some((pass, made)) if pass.to as usize == v => {
+            let mut view = assemble::view(
+                v,
+                setup.stats,
+                grid,
+                opts.simd_width,
+                outputs.iter().chain(&made.outputs),
+            );
+            (view.pixels, view.raster.pixels_covered) = made.frame.resolve();
+            view
+        }
+        _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
+    });
     FrameOutput {
         views,
         traffic,
@@ -251,12 +282,13 @@ pub fn commands_for(job: Job, z_prepass: bool, passes: Passes) -> Job {
 
 /// Replays every command's accesses through the caches in the order the hardware would
 /// issue them: geometry commands by the scheduler's issue key, then screen passes by
-/// (view, tile).
+/// (view, tile), then a view pass and its work-list chunks in order.
 fn memory_pass(
     sizes: CacheSizes,
     scheduler: &dyn Scheduler,
     jobs: &[Job],
     outputs: &[JobOutput],
+    view_pass: Option<&[JobOutput]>,
 ) -> (Traffic, CacheReport) {
     let mut order: Vec<(u8, [u64; 4], usize, usize)> = Vec::new();
     for (j, out) in outputs.iter().enumerate() {
@@ -271,6 +303,9 @@ fn memory_pass(
         }
     }
     order.sort_unstable();
-    let ordered: Vec<&AccessLog> = order.iter().map(|&(_, _, j, l)| &outputs[j].logs[l].1).collect();
+    let mut ordered: Vec<&AccessLog> = order.iter().map(|&(_, _, j, l)| &outputs[j].logs[l].1).collect();
+    if let Some(pass) = view_pass {
+        ordered.extend(pass.iter().flat_map(|out| out.logs.iter().map(|(_, log)| log)));
+    }
     simulate(sizes, &ordered)
 }

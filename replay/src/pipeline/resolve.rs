@@ -38,6 +38,6 @@ pub fn clear_pixel() -> [u8; 4] {
     encode(CLEAR_COLOR)
 }
 
-fn encode(c: Vec4) -> [u8; 4] {
+pub(super) fn encode(c: Vec4) -> [u8; 4] {
     [linear_to_srgb8(c.x), linear_to_srgb8(c.y), linear_to_srgb8(c.z), 255]
 }

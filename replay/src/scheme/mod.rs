@@ -16,7 +16,7 @@ use shadetrace_formats::results::{ShadingCacheStats, ShadingCost};
 
 use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout};
-use crate::pipeline::TileBuffer;
+use crate::pipeline::{TileBuffer, ViewFrame};
 use crate::raster::pixel_center;
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
@@ -120,6 +120,13 @@ pub enum Passes {
     ShadeAfterVisibility,
 }
 
+/// Which view a view pass makes from which.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ViewPass {
+    pub from: u8,
+    pub to: u8,
+}
+
 /// A shading scheme; `begin_job` makes the per-job state (caches live there, so a cache sees
 /// exactly the commands of one job: a tile under `immediate`, `sort-middle` and `multiview`,
 /// an epipolar tile row of both views under `tile-pair`).
@@ -127,6 +134,12 @@ pub trait ShadingScheme: Sync {
     fn name(&self) -> &'static str;
     fn passes(&self) -> Passes {
         Passes::Forward
+    }
+    /// A pass over whole views after the geometry pass ([`SchemeJob::derive_view`], then
+    /// [`SchemeJob::shade_pixels`] over its work list): view-to-view when `to != from` (view
+    /// `to` is then not drawn), a per-view screen pass over a drawn view when they are equal.
+    fn view_pass(&self) -> Option<ViewPass> {
+        None
     }
     /// The edge-receiver threshold when the scheme needs the receiver hierarchy.
     fn edge_receiver_delta(&self) -> Option<f32> {
@@ -148,6 +161,31 @@ pub trait SchemeJob {
     /// A tile's visibility is final (every geometry command of the tile has run): a screen
     /// pass reads `tile`'s depth and ids and writes its colour.
     fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut TileBuffer, _acc: &mut Accounting) {}
+
+    /// A view pass: writes view `to` (`ctx.view`; it starts cleared, or as a copy of `from`
+    /// when they are the same view) from the finished view `from`, and lists the pixels
+    /// (`y * width + x`) it leaves for [`SchemeJob::shade_pixels`].
+    fn derive_view(
+        &mut self,
+        _ctx: &ViewContext,
+        _from: &ViewFrame,
+        _to: &mut ViewFrame,
+        _work: &mut Vec<u32>,
+        _acc: &mut Accounting,
+    ) {
+    }
+
+    /// A chunk of a work list: one colour per pixel of `pixels` into `colors` (written to
+    /// every sample of the pixel). Chunks run in parallel, each with its own scheme job.
+    fn shade_pixels(
+        &mut self,
+        _ctx: &ViewContext,
+        _view: &ViewFrame,
+        _pixels: &[u32],
+        _colors: &mut Vec<Vec4>,
+        _acc: &mut Accounting,
+    ) {
+    }
 }
 
 /// What a screen pass may read while shading one tile of one view.
