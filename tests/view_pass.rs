@@ -10,7 +10,7 @@ use glam::Vec4;
 use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_replay::cost::{BlockSet, SimdPacker};
 use shadetrace_replay::cost_table::Block;
-use shadetrace_replay::pipeline::{run_frame, FrameOutput, PreparedScene, ViewFrame, CLEAR_COLOR, NO_PRIMITIVE};
+use shadetrace_replay::pipeline::{run_frame, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
 use shadetrace_replay::schedule::Immediate;
 use shadetrace_replay::scheme::{
     Accounting, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, UnitContext, ViewContext, ViewPass,
@@ -62,12 +62,12 @@ impl SchemeJob for CopyLeftJob {
     fn derive_view(
         &mut self,
         _: &ViewContext,
-        from: &ViewFrame,
-        to: &mut ViewFrame,
+        from: &SampleBuffer,
+        to: &mut SampleBuffer,
         work: &mut Vec<u32>,
         _: &mut Accounting,
     ) {
-        for pixel in 0..from.width * from.height {
+        for pixel in 0..from.width() * from.height() {
             let first = pixel as usize * from.samples;
             let samples = first..first + from.samples;
             if from.prim[samples.clone()].iter().all(|&p| p == NO_PRIMITIVE) {
@@ -83,7 +83,7 @@ impl SchemeJob for CopyLeftJob {
     fn shade_pixels(
         &mut self,
         ctx: &ViewContext,
-        _: &ViewFrame,
+        _: &SampleBuffer,
         pixels: &[u32],
         colors: &mut Vec<Vec4>,
         acc: &mut Accounting,

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec4;
 use shadetrace_replay::cost::{BlockSet, SimdPacker, FINE};
-use shadetrace_replay::pipeline::{run_frame, TileBuffer, NO_PRIMITIVE};
+use shadetrace_replay::pipeline::{run_frame, SampleBuffer, NO_PRIMITIVE};
 use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
     Accounting, Passes, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext,
@@ -76,7 +76,7 @@ impl SchemeJob for DeferredJob {
         unreachable!("a ShadeAfterVisibility scheme is never handed units")
     }
 
-    fn shade_tile(&mut self, ctx: &TileContext, tile: &mut TileBuffer, acc: &mut Accounting) {
+    fn shade_tile(&mut self, ctx: &TileContext, tile: &mut SampleBuffer, acc: &mut Accounting) {
         let r = tile.rect;
         for y in r.y0..r.y1 {
             for x in r.x0..r.x1 {

@@ -4,7 +4,7 @@
 use glam::Vec4;
 use shadetrace_formats::AlphaMode;
 
-use super::tile_buffer::{depth_passes, TileBuffer};
+use super::sample_buffer::{depth_passes, SampleBuffer};
 use crate::memory::{AccessLog, FramebufferLayout, Stream};
 use crate::raster::sample_position;
 use crate::scheme::ShadeQuad;
@@ -25,7 +25,7 @@ pub struct MergeInput<'a> {
 
 pub fn merge(
     input: &MergeInput,
-    buffer: &mut TileBuffer,
+    buffer: &mut SampleBuffer,
     layout: &FramebufferLayout,
     raster: &mut RasterStats,
     log: &mut AccessLog,

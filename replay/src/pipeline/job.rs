@@ -9,7 +9,7 @@ use shadetrace_formats::AlphaMode;
 
 use super::blend::{merge, MergeInput};
 use super::resolve::{resolve, TileImage};
-use super::tile_buffer::{depth_passes, TileBuffer};
+use super::sample_buffer::{depth_passes, SampleBuffer};
 use crate::bins::TileGrid;
 use crate::command::{Command, Job, Unit};
 use crate::geometry::FrameGeometry;
@@ -50,7 +50,7 @@ pub struct JobOutput {
     pub refinement: BTreeMap<u32, u8>,
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
-    pub buffers: Vec<TileBuffer>,
+    pub buffers: Vec<SampleBuffer>,
 }
 
 impl JobContext<'_> {
@@ -108,7 +108,7 @@ struct Scratch {
 
 pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
-    let mut buffers: BTreeMap<(u8, u32), TileBuffer> = BTreeMap::new();
+    let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
     let mut out = JobOutput::new(ctx.simd_width);
     let mut scratch = Scratch::default();
     for (index, command) in job.commands.iter().enumerate() {
@@ -118,9 +118,9 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
                 continue;
             }
             Command::Draw(unit) | Command::DepthPrepass(unit) | Command::Visibility(unit) => {
-                let buffer = buffers.entry((unit.view, unit.tile)).or_insert_with(|| {
-                    TileBuffer::new(unit.view, unit.tile, ctx.grid.rect(unit.tile), ctx.offsets.len())
-                });
+                let buffer = buffers
+                    .entry((unit.view, unit.tile))
+                    .or_insert_with(|| SampleBuffer::new(unit.view, ctx.grid.rect(unit.tile), ctx.offsets.len()));
                 geometry_command(ctx, command, unit, buffer, scheme_job.as_mut(), &mut scratch, &mut out)
             }
             Command::ShadeTile { view, tile } => match buffers.get_mut(&(view, tile)) {
@@ -143,7 +143,7 @@ fn geometry_command(
     ctx: &JobContext,
     command: &Command,
     unit: Unit,
-    buffer: &mut TileBuffer,
+    buffer: &mut SampleBuffer,
     scheme_job: &mut dyn SchemeJob,
     scratch: &mut Scratch,
     out: &mut JobOutput,
@@ -256,7 +256,7 @@ fn geometry_command(
 /// A screen pass over one tile: the scheme reads the resolved visibility and writes colour.
 fn shade_tile(
     ctx: &JobContext,
-    buffer: &mut TileBuffer,
+    buffer: &mut SampleBuffer,
     scheme_job: &mut dyn SchemeJob,
     out: &mut JobOutput,
 ) -> AccessLog {
@@ -267,7 +267,7 @@ fn shade_tile(
     for first in (0..buffer.depth.len()).step_by(samples) {
         let visible = buffer.prim[first..first + samples]
             .iter()
-            .filter(|&&p| p != super::tile_buffer::NO_PRIMITIVE)
+            .filter(|&&p| p != super::sample_buffer::NO_PRIMITIVE)
             .count();
         raster.samples_passed += visible as u64;
         raster.fragments_shaded += u64::from(visible > 0);

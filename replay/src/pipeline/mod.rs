@@ -11,7 +11,7 @@ mod assemble;
 mod blend;
 mod job;
 mod resolve;
-mod tile_buffer;
+mod sample_buffer;
 mod view_pass;
 
 use rayon::prelude::*;
@@ -33,8 +33,8 @@ use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
 use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
-pub use tile_buffer::{depth_passes, TileBuffer, CLEAR_COLOR, NO_PRIMITIVE};
-pub use view_pass::{ViewFrame, WORK_CHUNK};
+pub use sample_buffer::{depth_passes, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+pub use view_pass::WORK_CHUNK;
 
 /// Scene data prepared once per trace: mip chains and lights.
 pub struct PreparedScene {
@@ -215,7 +215,8 @@ pub fn run_frame(
                 opts.simd_width,
                 outputs.iter().chain(&made.outputs),
             );
-            (view.pixels, view.raster.pixels_covered) = made.frame.resolve();
+            let image = resolve::resolve(&made.frame);
+            (view.pixels, view.raster.pixels_covered) = (image.pixels, image.covered);
             view
         }
         _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),

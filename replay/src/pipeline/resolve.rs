@@ -2,7 +2,7 @@
 
 use glam::Vec4;
 
-use super::tile_buffer::{TileBuffer, CLEAR_COLOR};
+use super::sample_buffer::{SampleBuffer, CLEAR_COLOR};
 use crate::raster::Rect;
 use crate::srgb::linear_to_srgb8;
 
@@ -15,7 +15,7 @@ pub struct TileImage {
     pub covered: u64,
 }
 
-pub fn resolve(buffer: &TileBuffer) -> TileImage {
+pub fn resolve(buffer: &SampleBuffer) -> TileImage {
     let samples = buffer.samples;
     let pixels = buffer
         .color
@@ -38,6 +38,6 @@ pub fn clear_pixel() -> [u8; 4] {
     encode(CLEAR_COLOR)
 }
 
-pub(super) fn encode(c: Vec4) -> [u8; 4] {
+fn encode(c: Vec4) -> [u8; 4] {
     [linear_to_srgb8(c.x), linear_to_srgb8(c.y), linear_to_srgb8(c.z), 255]
 }

@@ -7,96 +7,48 @@ use glam::Vec4;
 use rayon::prelude::*;
 
 use super::job::JobOutput;
-use super::resolve::encode;
-use super::tile_buffer::{TileBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+use super::sample_buffer::SampleBuffer;
+use crate::raster::Rect;
 use crate::scheme::{ShadingScheme, ViewContext, ViewPass};
 
 /// Pixels per chunk of a work list (a chunk is one scheme job, so results do not depend on
 /// the thread count).
 pub const WORK_CHUNK: usize = 1024;
 
-/// A whole view's samples, `samples` consecutive entries per pixel, pixels row-major.
-#[derive(Clone)]
-pub struct ViewFrame {
-    pub view: u8,
-    pub width: u32,
-    pub height: u32,
-    pub samples: usize,
-    pub depth: Vec<f32>,
-    pub prim: Vec<u32>,
-    /// Setup-triangle id in the view that drew the sample (`NO_PRIMITIVE` in derived views
-    /// unless the pass sets one).
-    pub tri: Vec<u32>,
-    pub color: Vec<Vec4>,
-}
-
-impl ViewFrame {
-    /// A cleared view.
-    pub fn new(view: u8, width: u32, height: u32, samples: usize) -> ViewFrame {
-        let n = (width * height) as usize * samples;
-        ViewFrame {
-            view,
-            width,
-            height,
-            samples,
-            depth: vec![1.0; n],
-            prim: vec![NO_PRIMITIVE; n],
-            tri: vec![NO_PRIMITIVE; n],
-            color: vec![CLEAR_COLOR; n],
+/// The whole view `view` as one buffer, made of its jobs' tile buffers (tiles nobody
+/// touched stay clear).
+fn assemble_view<'a>(
+    view: u8,
+    width: u32,
+    height: u32,
+    samples: usize,
+    tiles: impl Iterator<Item = &'a SampleBuffer>,
+) -> SampleBuffer {
+    let rect = Rect {
+        x0: 0,
+        y0: 0,
+        x1: width,
+        y1: height,
+    };
+    let mut frame = SampleBuffer::new(view, rect, samples);
+    for tile in tiles.filter(|t| t.view == view) {
+        let r = tile.rect;
+        let row = (r.x1 - r.x0) as usize * samples;
+        for y in r.y0..r.y1 {
+            let (i, j) = (frame.index(r.x0, y, 0), tile.index(r.x0, y, 0));
+            frame.depth[i..i + row].copy_from_slice(&tile.depth[j..j + row]);
+            frame.prim[i..i + row].copy_from_slice(&tile.prim[j..j + row]);
+            frame.tri[i..i + row].copy_from_slice(&tile.tri[j..j + row]);
+            frame.color[i..i + row].copy_from_slice(&tile.color[j..j + row]);
         }
     }
-
-    #[inline]
-    pub fn index(&self, x: u32, y: u32, s: usize) -> usize {
-        (y * self.width + x) as usize * self.samples + s
-    }
-
-    /// The view made of its jobs' tile buffers (tiles nobody touched stay clear).
-    fn from_tiles<'a>(
-        view: u8,
-        width: u32,
-        height: u32,
-        samples: usize,
-        tiles: impl Iterator<Item = &'a TileBuffer>,
-    ) -> ViewFrame {
-        let mut frame = ViewFrame::new(view, width, height, samples);
-        for tile in tiles.filter(|t| t.view == view) {
-            let r = tile.rect;
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    for s in 0..samples {
-                        let (i, j) = (frame.index(x, y, s), tile.index(x, y, s));
-                        frame.depth[i] = tile.depth[j];
-                        frame.prim[i] = tile.prim[j];
-                        frame.tri[i] = tile.tri[j];
-                        frame.color[i] = tile.color[j];
-                    }
-                }
-            }
-        }
-        frame
-    }
-
-    /// sRGB pixels and the number of pixels with a covered sample.
-    pub fn resolve(&self) -> (Vec<[u8; 4]>, u64) {
-        let pixels = self
-            .color
-            .chunks_exact(self.samples)
-            .map(|s| encode(s.iter().copied().sum::<Vec4>() / self.samples as f32))
-            .collect();
-        let covered = self
-            .prim
-            .chunks_exact(self.samples)
-            .filter(|p| p.iter().any(|&id| id != NO_PRIMITIVE))
-            .count() as u64;
-        (pixels, covered)
-    }
+    frame
 }
 
 /// What a view pass produced: the made view and the outputs of the pass and of each
 /// work-list chunk, in order.
 pub struct DerivedOutput {
-    pub frame: ViewFrame,
+    pub frame: SampleBuffer,
     pub outputs: Vec<JobOutput>,
 }
 
@@ -111,7 +63,7 @@ pub fn run(
     jobs: &[JobOutput],
 ) -> DerivedOutput {
     let (width, height) = (ctx.width, ctx.height);
-    let from = ViewFrame::from_tiles(
+    let from = assemble_view(
         pass.from,
         width,
         height,
@@ -121,7 +73,7 @@ pub fn run(
     let mut to = if pass.to == pass.from {
         from.clone()
     } else {
-        ViewFrame::new(pass.to, width, height, samples)
+        SampleBuffer::new(pass.to, from.rect, samples)
     };
     let mut work = Vec::new();
     let mut first = JobOutput::new(simd_width);

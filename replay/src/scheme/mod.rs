@@ -16,7 +16,7 @@ use shadetrace_formats::results::{ShadingCacheStats, ShadingCost};
 
 use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout};
-use crate::pipeline::{TileBuffer, ViewFrame};
+use crate::pipeline::SampleBuffer;
 use crate::raster::pixel_center;
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
@@ -160,7 +160,7 @@ pub trait SchemeJob {
 
     /// A tile's visibility is final (every geometry command of the tile has run): a screen
     /// pass reads `tile`'s depth and ids and writes its colour.
-    fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut TileBuffer, _acc: &mut Accounting) {}
+    fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut SampleBuffer, _acc: &mut Accounting) {}
 
     /// A view pass: writes view `to` (`ctx.view`; it starts cleared, or as a copy of `from`
     /// when they are the same view) from the finished view `from`, and lists the pixels
@@ -168,8 +168,8 @@ pub trait SchemeJob {
     fn derive_view(
         &mut self,
         _ctx: &ViewContext,
-        _from: &ViewFrame,
-        _to: &mut ViewFrame,
+        _from: &SampleBuffer,
+        _to: &mut SampleBuffer,
         _work: &mut Vec<u32>,
         _acc: &mut Accounting,
     ) {
@@ -180,7 +180,7 @@ pub trait SchemeJob {
     fn shade_pixels(
         &mut self,
         _ctx: &ViewContext,
-        _view: &ViewFrame,
+        _view: &SampleBuffer,
         _pixels: &[u32],
         _colors: &mut Vec<Vec4>,
         _acc: &mut Accounting,

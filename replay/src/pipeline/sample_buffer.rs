@@ -1,6 +1,7 @@
-//! A tile's on-chip buffers: depth, primitive id, setup-triangle id and linear colour per
-//! sample, plus the farthest depth of the tile used to cull whole units. Jobs own the tiles
-//! their units touch; screen passes read the resolved samples here.
+//! The samples of a rectangle of one view: depth, primitive id, setup-triangle id and linear
+//! colour per sample, plus the farthest depth used to cull whole units. Jobs own the tiles
+//! their units touch (a tile's on-chip buffers); tile passes read the finished samples, and
+//! view passes get the whole view as one buffer.
 
 use glam::Vec4;
 
@@ -11,11 +12,11 @@ pub const CLEAR_COLOR: Vec4 = Vec4::new(0.05, 0.06, 0.08, 1.0);
 /// Primitive and setup ids of samples no triangle covers.
 pub const NO_PRIMITIVE: u32 = u32::MAX;
 
-/// Per-sample buffers of one tile of one view, `samples` consecutive entries per pixel,
-/// pixels row-major inside `rect`.
-pub struct TileBuffer {
+/// Per-sample buffers of a rectangle (a tile, or a whole view) of one view, `samples`
+/// consecutive entries per pixel, pixels row-major inside `rect`.
+#[derive(Clone)]
+pub struct SampleBuffer {
     pub view: u8,
-    pub tile: u32,
     pub rect: Rect,
     pub samples: usize,
     pub depth: Vec<f32>,
@@ -31,12 +32,11 @@ pub struct TileBuffer {
     pub max_depth: f32,
 }
 
-impl TileBuffer {
-    pub fn new(view: u8, tile: u32, rect: Rect, samples: usize) -> TileBuffer {
+impl SampleBuffer {
+    pub fn new(view: u8, rect: Rect, samples: usize) -> SampleBuffer {
         let n = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as usize * samples;
-        TileBuffer {
+        SampleBuffer {
             view,
-            tile,
             rect,
             samples,
             depth: vec![1.0; n],
@@ -48,7 +48,16 @@ impl TileBuffer {
         }
     }
 
-    /// Index of sample `s` of pixel (x, y), in tile-space order.
+    /// Pixels per row.
+    pub fn width(&self) -> u32 {
+        self.rect.x1 - self.rect.x0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.rect.y1 - self.rect.y0
+    }
+
+    /// Index of sample `s` of pixel (x, y), in the rectangle's row-major order.
     #[inline]
     pub fn index(&self, x: u32, y: u32, s: usize) -> usize {
         (((y - self.rect.y0) * (self.rect.x1 - self.rect.x0) + (x - self.rect.x0)) as usize) * self.samples + s
