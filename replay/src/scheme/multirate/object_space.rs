@@ -11,10 +11,10 @@
 //! parameter space; the predicates of He et al. run on those corners and refine effects per
 //! pixel, as in `multirate`.
 //!
-//! A corner outside the triangle being drawn is shaded from that triangle's attributes
-//! extrapolated (the patch's surface is not in the trace), so neighbouring triangles of a
-//! curved patch disagree slightly at shared corners: the "inconsistent shading across the
-//! triangles in the patch" the tile-pair paper observes of AMFS.
+//! A corner outside the triangle being drawn is shaded at that triangle's nearest point (the
+//! patch's surface is not in the trace), so neighbouring triangles of a patch disagree
+//! slightly at shared corners: the "inconsistent shading across the triangles in the patch"
+//! the tile-pair paper observes of AMFS.
 
 use glam::{Mat2, Vec2, Vec3};
 
@@ -49,6 +49,13 @@ pub(super) struct SurfaceFrame {
     to_bary: Mat2,
     /// Finest level whose lattice indices stay well inside i32 for this triangle.
     max_level: i32,
+    /// Coarsest level: a cell never spans more than the parameter range the surface can
+    /// have (the whole barycentric domain of a lone triangle), so its corners stay near it.
+    min_level: i32,
+    /// The surface is the drawn triangle alone (its own barycentric domain).
+    lone: bool,
+    /// Side of the square of the triangle's area, in parameter units.
+    triangle_size: f32,
 }
 
 impl SurfaceFrame {
@@ -77,11 +84,15 @@ impl SurfaceFrame {
         };
         let extent = params.iter().map(|p| p.abs().max_element()).fold(1.0f32, f32::max);
         let max_level = (29 - libm::ceilf(libm::log2f(extent)) as i32).clamp(MIN_LEVEL, MAX_LEVEL);
+        let min_level = (-(libm::ceilf(libm::log2f(extent)) as i32)).clamp(MIN_LEVEL, max_level);
         SurfaceFrame {
             surface,
             params,
             to_bary,
             max_level,
+            min_level,
+            lone: surface >> 63 == 1,
+            triangle_size: libm::sqrtf(0.5 * (params[1] - params[0]).perp_dot(params[2] - params[0]).abs()),
         }
     }
 
@@ -101,7 +112,7 @@ impl SurfaceFrame {
     fn level(&self, params: &[Vec2; 4], normals: Option<&[Vec3; 4]>, rate: f32) -> i32 {
         let per_pixel = (params[1] - params[0]).length().max((params[2] - params[0]).length());
         if !(per_pixel.is_finite() && per_pixel > 0.0) {
-            return 0.min(self.max_level);
+            return 0.clamp(self.min_level, self.max_level);
         }
         let mut level = libm::roundf(-libm::log2f(rate * per_pixel)) as i32;
         if let Some(n) = normals {
@@ -112,7 +123,30 @@ impl SurfaceFrame {
                 level += 1;
             }
         }
-        level.clamp(MIN_LEVEL, self.max_level)
+        level.clamp(self.min_level, self.max_level)
+    }
+
+    /// Barycentrics of the point of the drawn triangle where a corner of a level-`level`
+    /// cell is shaded: the corner's own, extrapolated outside the triangle (exact on flat
+    /// surfaces, and the patch's best guess on curved ones: the patch surface is not in the
+    /// trace). A lone triangle's surface is the triangle itself, so where its cell is larger
+    /// than the triangle (small triangles: corners up to a triangle away, into shadow or out
+    /// of it, the light leak of small creased triangles), the corner is shaded at the
+    /// triangle's nearest point instead (negative weights dropped, the rest renormalized),
+    /// as texture-space shading gives texels outside every triangle the attributes of the
+    /// nearest one.
+    fn shading_bary(&self, param: Vec2, level: i32) -> Vec3 {
+        let b = self.bary(param);
+        if !self.lone || libm::exp2f(-level as f32) <= self.triangle_size {
+            return b;
+        }
+        let b = b.max(Vec3::ZERO);
+        let sum = b.x + b.y + b.z;
+        if sum > 0.0 {
+            b / sum
+        } else {
+            Vec3::new(1.0, 0.0, 0.0)
+        }
     }
 }
 
@@ -311,7 +345,7 @@ impl MultirateJob {
                 cache.counters.blocks_skipped += 1;
             }
             for i in (0..4).filter(|&i| missing[i]) {
-                let bary = frame.bary(cell.corner_param(i));
+                let bary = frame.shading_bary(cell.corner_param(i), cell.level);
                 let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
                 let g = ctx.geometry;
                 positions[i] = g.positions[a] * bary.x + g.positions[c] * bary.y + g.positions[d] * bary.z;
