@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The tile-pair paper's Fig. 9: the spheres scene captured at several subdivision levels,
-# relative shading cost and SSIM (min and per view) of per-pixel, he-2x2, amfs, texel and
-# tile-pair at each, plus `tile-pair-paper`: tile-pair as the paper configures its method
-# (DYNAMIC4x4, static corner samples, and no small-triangle path, which the paper does not
-# use: its cache, not that path, meets tiny triangles).
+# relative shading cost and SSIM (min and per view) of per-pixel, he-2x2, tile-pair-he, amfs,
+# texel and tile-pair at each (the tile-pair paper's configuration: DYNAMIC4x4, static corner
+# samples for tile-pair and tile-pair-he, tile-pair scheduling, no small-triangle path for
+# tile-pair), plus `tile-pair-2x2`: tile-pair at COARSE2x2 with coverage-bbox samples.
 # Usage: scripts/tessellation-study.sh [OUT] [replay flags, e.g. --res 640x720]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,11 +28,11 @@ rows() {
 for level in 1 2 3 4 5; do
   trace="$out/spheres-$level.strace"
   "$bin" capture "builtin:spheres?subdiv=$level" -o "$trace" --quiet
-  "$bin" compare "$trace" --presets forward,he-2x2,amfs,texel,tile-pair --frames 0 --out "$out/level$level" --quiet "$@"
+  "$bin" compare "$trace" --presets forward,he-2x2,tile-pair-he,amfs,texel,tile-pair --frames 0 --out "$out/level$level" --quiet "$@"
   rows "$out/level$level" "" "$level"
-  "$bin" compare "$trace" --presets tile-pair --frames 0 --out "$out/level$level-paper" --quiet \
-    --coarse-mode dynamic --sampling static-corner --no-small-triangle "$@"
-  rows "$out/level$level-paper" tile-pair-paper "$level"
+  "$bin" compare "$trace" --presets tile-pair --frames 0 --out "$out/level$level-2x2" --quiet \
+    --coarse-mode 2x2 --sampling coverage-bbox --small-triangle true "$@"
+  rows "$out/level$level-2x2" tile-pair-2x2 "$level"
 done
 column -s, -t < "$out/study.csv"
 echo "wrote $out/study.csv"

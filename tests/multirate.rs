@@ -183,7 +183,8 @@ fn extremes_do_not_break_multirate() {
             "8",
             "--sampling",
             "static-corner",
-            "--no-small-triangle",
+            "--small-triangle",
+            "false",
         ],
         vec!["--res", "64x72", "--schedule", "sort-middle", "--msaa", "4"],
     ]

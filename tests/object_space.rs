@@ -96,11 +96,21 @@ fn object_space_cost_stays_flat_under_tessellation() {
 
 /// View-independent reuse: most of the right view's cache hits are the left view's shading,
 /// taken without a test, so moving from a per-view scheduler (no cross-view reuse) to the
-/// tile-pair scheduler costs the right view more SSIM than the left, on a specular scene.
+/// tile-pair scheduler costs the right view more SSIM than the left, on a specular scene, at
+/// COARSE2x2 (under the preset's DYNAMIC4x4 the refined cells shade finer in both views and
+/// the loss is below the noise of SSIM).
 #[test]
 fn view_independent_reuse_costs_the_right_view_more() {
     let dir = tempfile::tempdir().unwrap();
-    let args = ["--res", "640x720", "--frames", "0", "--no-images"];
+    let args = [
+        "--res",
+        "640x720",
+        "--frames",
+        "0",
+        "--no-images",
+        "--coarse-mode",
+        "2x2",
+    ];
     let (paired, _) = replay("traces/spheres.strace", "amfs", &args, None, dir.path(), "paired");
     let mut per_view_args = args.to_vec();
     per_view_args.extend_from_slice(&["--schedule", "sort-middle"]);

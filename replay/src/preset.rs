@@ -4,7 +4,7 @@
 
 use crate::options::ReplayOptions;
 use crate::schedule::{Immediate, Multiview, Scheduler, SortMiddle, TilePair};
-use crate::scheme::multirate::CoarseMode;
+use crate::scheme::multirate::{CoarseMode, Sampling};
 use crate::scheme::registry::{self, SchemeEntry, SCHEMES};
 use crate::scheme::ShadingScheme;
 
@@ -13,95 +13,165 @@ pub const REFERENCE_PRESET: &str = "forward";
 
 pub const SCHEDULERS: [&str; 4] = ["immediate", "sort-middle", "multiview", "tile-pair"];
 
-/// A named scheduler x scheme pair.
+/// A named scheduler x scheme pair, with the multi-rate settings of the paper it is named
+/// after (command-line flags override them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Preset {
     pub name: &'static str,
     pub scheduler: &'static str,
     pub scheme: &'static str,
-    /// Coarse mode of the `multirate` scheme.
+    /// Coarse mode of the multi-rate schemes.
     pub mode: Option<CoarseMode>,
+    /// Sample placement of screen-block multi-rate schemes.
+    pub sampling: Option<Sampling>,
+    /// He et al.'s small-triangle path of screen-block multi-rate schemes.
+    pub small_triangle: Option<bool>,
     pub description: &'static str,
 }
 
-pub const PRESETS: [Preset; 11] = [
+const fn preset(
+    name: &'static str,
+    scheduler: &'static str,
+    scheme: &'static str,
+    description: &'static str,
+) -> Preset {
     Preset {
-        name: "forward",
-        scheduler: "immediate",
-        scheme: "per-pixel",
+        name,
+        scheduler,
+        scheme,
         mode: None,
-        description: "forward GPU: immediate-mode raster, quad shading per pixel (the reference)",
-    },
+        sampling: None,
+        small_triangle: None,
+        description,
+    }
+}
+
+const fn multirate(preset: Preset, mode: CoarseMode, sampling: Option<Sampling>) -> Preset {
     Preset {
-        name: "sort-middle",
-        scheduler: "sort-middle",
-        scheme: "per-pixel",
-        mode: None,
-        description: "tile-based sort-middle: per-view tile lists, each tile finished in turn",
-    },
+        mode: Some(mode),
+        sampling,
+        ..preset
+    }
+}
+
+const fn without_small_triangle_path(preset: Preset) -> Preset {
     Preset {
-        name: "he-2x2",
-        scheduler: "immediate",
-        scheme: "multirate",
-        mode: Some(CoarseMode::Coarse2x2),
-        description: "He et al. 2014 COARSE2x2: coarse shading per 2x2 pixels, adaptive refinement",
-    },
-    Preset {
-        name: "he-4x4",
-        scheduler: "immediate",
-        scheme: "multirate",
-        mode: Some(CoarseMode::Coarse4x4),
-        description: "He et al. 2014 COARSE4x4: coarse shading per 4x4 pixels, adaptive refinement",
-    },
-    Preset {
-        name: "he-dynamic",
-        scheduler: "immediate",
-        scheme: "multirate",
-        mode: Some(CoarseMode::Dynamic4x4),
-        description: "He et al. 2014 DYNAMIC4x4: 4x4 first, refined blocks re-shaded at 2x2",
-    },
-    Preset {
-        name: "multiview",
-        scheduler: "multiview",
-        scheme: "per-pixel",
-        mode: None,
-        description: "Hasselgren & Akenine-Moller 2006: each triangle rasterized to both views together",
-    },
-    Preset {
-        name: "tile-pair-pp",
-        scheduler: "tile-pair",
-        scheme: "per-pixel",
-        mode: None,
-        description: "Yuan et al. tile-pair scheduling with per-pixel shading (the bandwidth study)",
-    },
-    Preset {
-        name: "tile-pair",
-        scheduler: "tile-pair",
-        scheme: "tile-pair-cache",
-        mode: Some(CoarseMode::Coarse2x2),
-        description: "Yuan et al.: tile-pair scheduling, screen-space shading cache with cross-view reuse",
-    },
-    Preset {
-        name: "amfs",
-        scheduler: "tile-pair",
-        scheme: "amfs",
-        mode: Some(CoarseMode::Coarse2x2),
-        description: "AMFS-like patch-space shading cache, local and view-independent (as in the tile-pair paper)",
-    },
-    Preset {
-        name: "texel",
-        scheduler: "tile-pair",
-        scheme: "texel",
-        mode: Some(CoarseMode::Coarse2x2),
-        description: "texel shading: texture-space cache over a unique UV atlas (needs one)",
-    },
-    Preset {
-        name: "tile-pair-he-2x2",
-        scheduler: "tile-pair",
-        scheme: "multirate",
-        mode: Some(CoarseMode::Coarse2x2),
-        description: "tile-pair scheduling with He et al. COARSE2x2 shading",
-    },
+        small_triangle: Some(false),
+        ..preset
+    }
+}
+
+/// The tile-pair paper (§6) runs every multi-rate method in DYNAMIC4x4 with static-corner
+/// samples (He et al. and tile-pair) under tile-pair scheduling, with He et al.'s
+/// predicates. Its own method has no small-triangle path: tiny triangles meet its cache
+/// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
+/// shading of small blocks would bypass. He et al.'s own presets keep their paper's
+/// coverage-bbox samples, small-triangle path and immediate pipeline.
+pub const PRESETS: [Preset; 12] = [
+    preset(
+        "forward",
+        "immediate",
+        "per-pixel",
+        "forward GPU: immediate-mode raster, quad shading per pixel (the reference)",
+    ),
+    preset(
+        "sort-middle",
+        "sort-middle",
+        "per-pixel",
+        "tile-based sort-middle: per-view tile lists, each tile finished in turn",
+    ),
+    multirate(
+        preset(
+            "he-2x2",
+            "immediate",
+            "multirate",
+            "He et al. 2014 COARSE2x2: coarse shading per 2x2 pixels, adaptive refinement",
+        ),
+        CoarseMode::Coarse2x2,
+        None,
+    ),
+    multirate(
+        preset(
+            "he-4x4",
+            "immediate",
+            "multirate",
+            "He et al. 2014 COARSE4x4: coarse shading per 4x4 pixels, adaptive refinement",
+        ),
+        CoarseMode::Coarse4x4,
+        None,
+    ),
+    multirate(
+        preset(
+            "he-dynamic",
+            "immediate",
+            "multirate",
+            "He et al. 2014 DYNAMIC4x4: 4x4 first, refined blocks re-shaded at 2x2",
+        ),
+        CoarseMode::Dynamic4x4,
+        None,
+    ),
+    preset(
+        "multiview",
+        "multiview",
+        "per-pixel",
+        "Hasselgren & Akenine-Moller 2006: each triangle rasterized to both views together",
+    ),
+    preset(
+        "tile-pair-pp",
+        "tile-pair",
+        "per-pixel",
+        "Yuan et al. tile-pair scheduling with per-pixel shading (the bandwidth study)",
+    ),
+    without_small_triangle_path(multirate(
+        preset(
+            "tile-pair",
+            "tile-pair",
+            "tile-pair-cache",
+            "Yuan et al.: tile-pair scheduling, screen-space shading cache with cross-view reuse (DYNAMIC4x4, static corner)",
+        ),
+        CoarseMode::Dynamic4x4,
+        Some(Sampling::StaticCorner),
+    )),
+    multirate(
+        preset(
+            "tile-pair-he",
+            "tile-pair",
+            "multirate",
+            "He et al. as the tile-pair paper compares it: tile-pair scheduling, DYNAMIC4x4, static corner",
+        ),
+        CoarseMode::Dynamic4x4,
+        Some(Sampling::StaticCorner),
+    ),
+    multirate(
+        preset(
+            "amfs",
+            "tile-pair",
+            "amfs",
+            "AMFS-like patch-space shading cache, local and view-independent (as in the tile-pair paper, DYNAMIC4x4)",
+        ),
+        CoarseMode::Dynamic4x4,
+        None,
+    ),
+    multirate(
+        preset(
+            "texel",
+            "tile-pair",
+            "texel",
+            "texel shading: texture-space cache over a unique UV atlas (needs one; DYNAMIC4x4)",
+        ),
+        CoarseMode::Dynamic4x4,
+        None,
+    ),
+    multirate(
+        preset(
+            "tile-pair-he-2x2",
+            "tile-pair",
+            "multirate",
+            "tile-pair scheduling with He et al. COARSE2x2 shading (coverage-bbox)",
+        ),
+        CoarseMode::Coarse2x2,
+        None,
+    ),
 ];
 
 impl Preset {
@@ -113,13 +183,12 @@ impl Preset {
         if let Some((scheduler, scheme)) = name.split_once('+') {
             let scheduler = SCHEDULERS.iter().find(|s| **s == scheduler);
             if let (Some(scheduler), Some(scheme)) = (scheduler, registry::scheme(scheme)) {
-                return Ok(Preset {
-                    name: "custom",
+                return Ok(preset(
+                    "custom",
                     scheduler,
-                    scheme: scheme.name,
-                    mode: None,
-                    description: "scheduler x scheme chosen on the command line",
-                });
+                    scheme.name,
+                    "scheduler x scheme chosen on the command line",
+                ));
             }
         }
         let names: Vec<&str> = PRESETS.iter().map(|p| p.name).collect();
@@ -149,6 +218,15 @@ impl Preset {
                 SCHEDULERS.join(", ")
             )),
         }
+    }
+
+    /// `opts` with the preset's settings where the command line left them open: what the
+    /// run uses and what its results record.
+    pub fn resolve(&self, opts: &ReplayOptions) -> ReplayOptions {
+        let mut resolved = opts.clone();
+        resolved.multirate.sampling = opts.multirate.sampling.or(self.sampling);
+        resolved.multirate.small_triangle = opts.multirate.small_triangle.or(self.small_triangle);
+        resolved
     }
 
     /// The registry entry of the preset's scheme.

@@ -131,9 +131,10 @@ pub fn replay_all(
 }
 
 /// One preset's replay in progress.
-struct Replay<'a> {
+struct Replay {
     preset: Preset,
-    opts: &'a ReplayOptions,
+    /// The options resolved against the preset.
+    opts: ReplayOptions,
     scheduler: Box<dyn Scheduler>,
     scheme: Box<dyn ShadingScheme>,
     frames: std::ops::Range<u32>,
@@ -151,8 +152,9 @@ struct ReferenceFrame {
     images: FrameImages,
 }
 
-impl<'a> Replay<'a> {
-    fn new(trace: &LoadedTrace, preset: &Preset, opts: &'a ReplayOptions) -> Result<Replay<'a>, String> {
+impl Replay {
+    fn new(trace: &LoadedTrace, preset: &Preset, opts: &ReplayOptions) -> Result<Replay, String> {
+        let opts = preset.resolve(opts);
         opts.check()?;
         preset.supports(&trace.prepared.scene)?;
         let count = trace.frames.len() as u32;
@@ -160,18 +162,19 @@ impl<'a> Replay<'a> {
         if end > count {
             return Err(format!("--frames {start}..{end}: the trace has {count} frames"));
         }
+        let size = opts
+            .resolution
+            .unwrap_or((trace.meta.capture.eye_width, trace.meta.capture.eye_height));
         Ok(Replay {
             preset: *preset,
+            scheduler: preset.scheduler(&opts)?,
+            scheme: preset.scheme(&opts),
             opts,
-            scheduler: preset.scheduler(opts)?,
-            scheme: preset.scheme(opts),
             frames: start..end,
             results: Vec::new(),
             total: FrameTotals::default(),
             pixels: 0,
-            size: opts
-                .resolution
-                .unwrap_or((trace.meta.capture.eye_width, trace.meta.capture.eye_height)),
+            size,
             busy: Duration::ZERO,
             first_images: None,
         })
@@ -194,7 +197,7 @@ impl<'a> Replay<'a> {
             &trace.prepared,
             &trace.meta,
             frame,
-            self.opts,
+            &self.opts,
             self.scheduler.as_ref(),
             self.scheme.as_ref(),
         );
@@ -276,7 +279,7 @@ impl<'a> Replay<'a> {
                 trace_name: trace.name.clone(),
                 trace_hash: trace.hash.to_hex(),
                 preset: self.preset.label(),
-                scheduler: self.preset.scheduler_name(self.opts).to_string(),
+                scheduler: self.preset.scheduler_name(&self.opts).to_string(),
                 scheme: self.preset.scheme.to_string(),
                 options: self.opts.to_map(),
                 options_hash: self.opts.hash(),

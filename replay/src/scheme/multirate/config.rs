@@ -201,14 +201,18 @@ pub struct MultirateOptions {
     #[arg(long = "coarse-mode", value_enum)]
     #[serde(serialize_with = "or_preset")]
     pub mode: Option<CoarseMode>,
-    /// Multi-rate sample placement in screen blocks (multirate, tile-pair-cache); amfs and
-    /// texel shade lattice corners.
-    #[arg(long, value_enum, default_value_t = DEFAULT_MULTIRATE.sampling)]
-    pub sampling: Sampling,
-    /// Disable the small-triangle optimization of screen-block multi-rate shading
-    /// (multirate, tile-pair-cache; amfs and texel have no such path).
-    #[arg(long = "no-small-triangle", action = clap::ArgAction::SetFalse)]
-    pub small_triangle: bool,
+    /// Multi-rate sample placement in screen blocks (multirate, tile-pair-cache), overriding
+    /// the preset's (coverage-bbox unless the preset fixes one); amfs and texel shade
+    /// lattice corners.
+    #[arg(long, value_enum)]
+    #[serde(serialize_with = "sampling_or_default")]
+    pub sampling: Option<Sampling>,
+    /// The small-triangle optimization of screen-block multi-rate shading (He et al.: true
+    /// unless the preset turns it off; amfs and texel have no such path), overriding the
+    /// preset's.
+    #[arg(long = "small-triangle", value_name = "BOOL")]
+    #[serde(serialize_with = "small_triangle_or_default")]
+    pub small_triangle: Option<bool>,
     #[command(flatten)]
     #[serde(flatten)]
     pub thresholds: Thresholds,
@@ -230,8 +234,8 @@ pub struct MultirateOptions {
 
 pub const DEFAULT_MULTIRATE: MultirateOptions = MultirateOptions {
     mode: None,
-    sampling: Sampling::CoverageBbox,
-    small_triangle: true,
+    sampling: None,
+    small_triangle: None,
     thresholds: DEFAULT_THRESHOLDS,
     threshold_scale: 1.0,
     schedule: SimdSchedule::TwoPhase,
@@ -272,6 +276,20 @@ impl MultirateOptions {
     }
 }
 
+/// Sample placement of presets that fix none: He et al.'s choice for all their results.
+pub const DEFAULT_SAMPLING: Sampling = Sampling::CoverageBbox;
+
+/// The sampling in effect: options are resolved against the preset before they are recorded
+/// (`Preset::resolve`), so an unset sampling is the default one.
+fn sampling_or_default<S: serde::Serializer>(sampling: &Option<Sampling>, s: S) -> Result<S::Ok, S::Error> {
+    sampling.unwrap_or(DEFAULT_SAMPLING).serialize(s)
+}
+
+/// The small-triangle setting in effect (resolved as the sampling is): on unless set.
+fn small_triangle_or_default<S: serde::Serializer>(on: &Option<bool>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_bool(on.unwrap_or(true))
+}
+
 /// The coarse mode's name, or `preset` when the preset decides.
 fn or_preset<S: serde::Serializer>(mode: &Option<CoarseMode>, s: S) -> Result<S::Ok, S::Error> {
     match mode {
@@ -284,7 +302,7 @@ impl Default for MultirateConfig {
     fn default() -> Self {
         MultirateConfig {
             mode: CoarseMode::Coarse2x2,
-            sampling: Sampling::CoverageBbox,
+            sampling: DEFAULT_SAMPLING,
             small_triangle: true,
             thresholds: DEFAULT_THRESHOLDS,
             schedule: SimdSchedule::TwoPhase,

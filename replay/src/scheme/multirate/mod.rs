@@ -29,7 +29,10 @@ use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
 use crate::shader::{compose, Effects, LightTerm, LightingInputs};
 use block::{sample_attributes, CoarseBlock};
-pub use config::{CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds};
+pub use config::{
+    CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
+    DEFAULT_SAMPLING,
+};
 use object_space::{CellBlock, LaneSource};
 
 pub struct Multirate(pub MultirateConfig);
@@ -44,8 +47,8 @@ pub fn build(
     let m = &opts.multirate;
     Box::new(Multirate(MultirateConfig {
         mode: m.mode.or(preset_mode).unwrap_or(CoarseMode::Coarse2x2),
-        sampling: m.sampling,
-        small_triangle: m.small_triangle,
+        sampling: m.sampling.unwrap_or(DEFAULT_SAMPLING),
+        small_triangle: m.small_triangle.unwrap_or(true),
         thresholds: m.thresholds.scaled(m.threshold_scale),
         schedule: m.schedule,
         cache: space.map(|space| CacheConfig {
