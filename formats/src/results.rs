@@ -51,12 +51,14 @@ impl RunResult {
                 check(format!("{at}.relative_cost"), view.relative_cost);
                 if let Some(q) = view.quality {
                     check(format!("{at}.quality.ssim"), q.ssim);
+                    check(format!("{at}.quality.ssim_covered"), q.ssim_covered);
                     check(format!("{at}.quality.psnr_db"), q.psnr_db);
                 }
             }
         }
         check("total.relative_cost".into(), self.total.relative_cost);
         check("total.min_ssim".into(), self.total.min_ssim);
+        check("total.min_ssim_covered".into(), self.total.min_ssim_covered);
         check("timing.wall_s".into(), Some(self.timing.wall_s));
         check("timing.pixels_per_s".into(), Some(self.timing.pixels_per_s));
         bad
@@ -138,6 +140,9 @@ pub struct FrameTotals {
     pub relative_cost: Option<f64>,
     /// Lowest SSIM over all frames and views.
     pub min_ssim: Option<f64>,
+    /// Lowest covered-pixel SSIM over all frames and views.
+    #[serde(default)]
+    pub min_ssim_covered: Option<f64>,
     pub shaded_pixels: u64,
 }
 
@@ -400,6 +405,10 @@ pub struct ShadowPassStats {
 pub struct Quality {
     /// None when the image is smaller than the 11x11 SSIM window.
     pub ssim: Option<f64>,
+    /// SSIM over the windows centred on pixels the reference covers (background excluded);
+    /// None where no such window exists. Absent from results written before it existed.
+    #[serde(default)]
+    pub ssim_covered: Option<f64>,
     /// None when the images are identical (infinite PSNR).
     pub psnr_db: Option<f64>,
     pub max_abs_error: u8,

@@ -49,6 +49,11 @@ pub fn luma(img: &Rgba8Image) -> Vec<f64> {
 /// depend on the number of threads.
 pub fn ssim(a: &[f64], b: &[f64], width: u32, height: u32) -> Option<f64> {
     let map = ssim_map(a, b, width, height)?;
+    Some(mean_of_valid(&map, width, height))
+}
+
+/// Mean of an SSIM map over the valid windows, in NumPy's summation order.
+fn mean_of_valid(map: &[f64], width: u32, height: u32) -> f64 {
     let (w, h) = (width as usize, height as usize);
     let cropped_width = w - 2 * RADIUS;
     let count = cropped_width * (h - 2 * RADIUS);
@@ -66,7 +71,20 @@ pub fn ssim(a: &[f64], b: &[f64], width: u32, height: u32) -> Option<f64> {
         }
         total += pairwise_sum(&block);
     }
-    Some(total / count as f64)
+    total / count as f64
+}
+
+/// Mean of an SSIM map over the valid windows centred on a covered pixel (`covered` is
+/// row-major, one flag per pixel): orbit views are mostly background, which an image-wide
+/// mean counts as perfect. None when no valid window is centred on a covered pixel.
+fn mean_of_covered(map: &[f64], covered: &[bool], width: u32, height: u32) -> Option<f64> {
+    let (w, h) = (width as usize, height as usize);
+    let values: Vec<f64> = (RADIUS..h - RADIUS)
+        .flat_map(|y| (RADIUS..w - RADIUS).map(move |x| y * w + x))
+        .filter(|&i| covered[i])
+        .map(|i| map[i])
+        .collect();
+    (!values.is_empty()).then(|| pairwise_sum(&values) / values.len() as f64)
 }
 
 /// The full per-pixel SSIM map (scikit-image's `full=True` output), border included, for
@@ -262,11 +280,13 @@ pub fn max_abs_error(a: &Rgba8Image, b: &Rgba8Image) -> u8 {
         .unwrap_or(0)
 }
 
-/// All quality metrics of `test` against `reference` (ARCHITECTURE.md, Definitions: quality). `ssim` is None for
-/// images smaller than 11x11 and `psnr_db` is None when the images are identical.
-/// Errors when the images differ in size, have no pixels, or have a pixel buffer that is
-/// not `width * height` long.
-pub fn compare(reference: &Rgba8Image, test: &Rgba8Image) -> Result<Quality, String> {
+/// All quality metrics of `test` against `reference` (ARCHITECTURE.md, Definitions:
+/// quality), with the covered-pixel SSIM over the pixels where `covered` is true (one flag
+/// per pixel, row-major; the reference's covered pixels). `ssim` is None for images smaller
+/// than 11x11 and `psnr_db` is None when the images are identical. Errors when the images
+/// differ in size, have no pixels, or have a pixel buffer (or mask) that is not
+/// `width * height` long.
+pub fn compare(reference: &Rgba8Image, test: &Rgba8Image, covered: &[bool]) -> Result<Quality, String> {
     if (reference.width, reference.height) != (test.width, test.height) {
         return Err(format!(
             "cannot compare a {}x{} image with a {}x{} reference",
@@ -282,8 +302,18 @@ pub fn compare(reference: &Rgba8Image, test: &Rgba8Image) -> Result<Quality, Str
             test.pixels.len()
         ));
     }
+    if covered.len() != reference.pixels.len() {
+        return Err(format!(
+            "a coverage mask of {} pixels for {} pixels",
+            covered.len(),
+            reference.pixels.len()
+        ));
+    }
+    let (w, h) = (reference.width, reference.height);
+    let map = ssim_map(&luma(reference), &luma(test), w, h);
     Ok(Quality {
-        ssim: ssim(&luma(reference), &luma(test), reference.width, reference.height),
+        ssim: map.as_ref().map(|m| mean_of_valid(m, w, h)),
+        ssim_covered: map.as_ref().and_then(|m| mean_of_covered(m, covered, w, h)),
         psnr_db: psnr_for_report(reference, test),
         max_abs_error: max_abs_error(reference, test),
     })
@@ -307,6 +337,36 @@ mod tests {
         image
     }
 
+    fn all(img: &Rgba8Image) -> Vec<bool> {
+        vec![true; img.pixels.len()]
+    }
+
+    /// Error confined to a covered region of a mostly empty frame: the image-wide mean counts
+    /// the background as perfect, the covered-pixel mean does not.
+    #[test]
+    fn covered_pixel_ssim_excludes_the_background() {
+        let (w, h) = (64u32, 48u32);
+        let reference = noise_image(w, h, 7);
+        let mut test = reference.clone();
+        let inside = |x: u32, y: u32| (20..36).contains(&x) && (16..30).contains(&y);
+        for y in 0..h {
+            for x in 0..w {
+                if inside(x, y) {
+                    let p = reference.get(x, y).unwrap();
+                    test.set(x, y, [p[0] / 2, p[1] / 2, p[2] / 2, 255]);
+                }
+            }
+        }
+        let covered: Vec<bool> = (0..w * h).map(|i| inside(i % w, i / w)).collect();
+        let q = compare(&reference, &test, &covered).unwrap();
+        let (whole, region) = (q.ssim.unwrap(), q.ssim_covered.unwrap());
+        assert!(region < whole - 0.1, "covered {region} vs whole {whole}");
+        let everything = compare(&reference, &test, &all(&reference)).unwrap();
+        assert!((everything.ssim_covered.unwrap() - whole).abs() < 1e-12);
+        let nothing = compare(&reference, &test, &vec![false; covered.len()]).unwrap();
+        assert_eq!(nothing.ssim_covered, None);
+    }
+
     #[test]
     fn identical_images_are_exactly_similar() {
         for (w, h) in [(11, 11), (40, 23), (300, 17)] {
@@ -316,7 +376,7 @@ mod tests {
             assert!(ssim_map(&y, &y, w, h).unwrap().iter().all(|&s| s == 1.0));
             let flat = vec![0.0; y.len()];
             assert_eq!(ssim(&flat, &flat, w, h), Some(1.0));
-            let q = compare(&img, &img).unwrap();
+            let q = compare(&img, &img, &all(&img)).unwrap();
             assert_eq!((q.ssim, q.psnr_db, q.max_abs_error), (Some(1.0), None, 0));
             assert_eq!(psnr(&img, &img), f64::INFINITY);
         }
@@ -339,7 +399,7 @@ mod tests {
         assert_eq!(ssim(&y, &y[1..], 11, 11), None);
         assert_eq!(ssim_map(&y, &y, 11, 19), None, "200 values for 11x19");
         let small = noise_image(8, 8, 3);
-        let q = compare(&small, &noise_image(8, 8, 4)).unwrap();
+        let q = compare(&small, &noise_image(8, 8, 4), &all(&small)).unwrap();
         assert_eq!(q.ssim, None);
         assert!(q.psnr_db.is_some());
     }
@@ -361,11 +421,12 @@ mod tests {
     #[test]
     fn mismatched_images_are_rejected() {
         let a = Rgba8Image::new(4, 4);
-        assert!(compare(&a, &Rgba8Image::new(4, 5)).is_err());
-        assert!(compare(&Rgba8Image::new(0, 0), &Rgba8Image::new(0, 0)).is_err());
+        assert!(compare(&a, &Rgba8Image::new(4, 5), &all(&a)).is_err());
+        assert!(compare(&Rgba8Image::new(0, 0), &Rgba8Image::new(0, 0), &[]).is_err());
         let mut short = Rgba8Image::new(4, 4);
         short.pixels.pop();
-        assert!(compare(&a, &short).is_err());
+        assert!(compare(&a, &short, &all(&a)).is_err());
+        assert!(compare(&a, &a, &[true; 3]).is_err(), "a mask of the wrong size");
         assert!(psnr(&a, &short).is_nan());
         assert_eq!(psnr_for_report(&a, &short), None);
         assert_eq!(max_abs_error(&a, &short), 255);

@@ -13,7 +13,7 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
-use crate::pipeline::{run_frame, PreparedScene};
+use crate::pipeline::{clear_pixel, run_frame, PreparedScene};
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
 use crate::schedule::Scheduler;
@@ -216,7 +216,10 @@ impl Replay {
                 Some(r) => {
                     let issued = r.result.views[v].cost.issued();
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
-                    (rel, Some(quality::compare(&r.images.views[v].color, &color)?))
+                    let reference = &r.images.views[v].color;
+                    let clear = clear_pixel();
+                    let covered: Vec<bool> = reference.pixels.iter().map(|p| *p != clear).collect();
+                    (rel, Some(quality::compare(reference, &color, &covered)?))
                 }
                 None => (None, None),
             };
@@ -224,6 +227,9 @@ impl Replay {
             self.total.shaded_pixels += view.raster.fragments_shaded;
             if let Some(q) = quality.and_then(|q| q.ssim) {
                 self.total.min_ssim = Some(self.total.min_ssim.map_or(q, |m: f64| m.min(q)));
+            }
+            if let Some(q) = quality.and_then(|q| q.ssim_covered) {
+                self.total.min_ssim_covered = Some(self.total.min_ssim_covered.map_or(q, |m: f64| m.min(q)));
             }
             let refined_pixels = info.reports_refinement.then(|| {
                 let count = |e: Effects| view.refinement.iter().filter(|&&r| r & e.bits() != 0).count() as u64;

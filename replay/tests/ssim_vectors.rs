@@ -90,7 +90,7 @@ fn ssim_psnr_and_max_error_match_scikit_image() {
         }
         assert_eq!(max_abs_error(&a, &b), case.max_abs_error, "{}", case.name);
 
-        let quality = compare(&a, &b).unwrap();
+        let quality = compare(&a, &b, &vec![true; a.pixels.len()]).unwrap();
         assert_eq!(quality.ssim, Some(got));
         assert_eq!(quality.psnr_db, psnr_for_report(&a, &b));
         assert_eq!(quality.max_abs_error, case.max_abs_error);

@@ -27,7 +27,16 @@ impl Columns {
             .map(String::from)
             .to_vec();
         h.extend(self.stages.iter().map(|s| format!("{s}_issued")));
-        h.extend(["relative_cost_pct", "simd_utilization_pct", "min_ssim", "min_psnr_db"].map(String::from));
+        h.extend(
+            [
+                "relative_cost_pct",
+                "simd_utilization_pct",
+                "min_ssim",
+                "min_ssim_covered",
+                "min_psnr_db",
+            ]
+            .map(String::from),
+        );
         h.extend(self.classes.iter().map(|c| format!("{c}_bytes")));
         h.extend(
             [
@@ -49,7 +58,7 @@ impl Columns {
             .map(String::from)
             .to_vec();
         h.extend(self.stages.iter().cloned());
-        h.extend(["rel.cost", "SIMD", "min SSIM", "min PSNR"].map(String::from));
+        h.extend(["rel.cost", "SIMD", "min SSIM", "covered", "min PSNR"].map(String::from));
         h.extend(self.classes.iter().map(|c| format!("{} KiB", short_class(c))));
         h.extend(
             [
@@ -172,6 +181,7 @@ fn csv_row(r: &RunResult, columns: &Columns) -> Vec<String> {
         opt(t.relative_cost, |c| (100.0 * c).to_string()),
         (100.0 * t.cost.simd_utilization()).to_string(),
         opt(t.min_ssim, |s| s.to_string()),
+        opt(t.min_ssim_covered, |s| s.to_string()),
         opt(min_psnr(r), |p| p.to_string()),
     ]);
     row.extend(columns.classes.iter().map(|c| tr.bytes(c).to_string()));
@@ -205,6 +215,8 @@ fn table_row(r: &RunResult, columns: &Columns) -> Vec<String> {
             .map_or_else(|| "-".to_string(), |c| format!("{:.2}%", 100.0 * c)),
         format!("{:.1}%", 100.0 * t.cost.simd_utilization()),
         t.min_ssim.map_or_else(|| "-".to_string(), |s| format!("{s:.6}")),
+        t.min_ssim_covered
+            .map_or_else(|| "-".to_string(), |s| format!("{s:.6}")),
         match min_psnr(r) {
             Some(p) => format!("{p:.2}"),
             None if measured(r) => "inf".to_string(),

@@ -232,7 +232,7 @@ fn render_table(h: &mut String, section: &ReportSection) {
     for stage in &stages {
         let _ = write!(h, "<th>{} instr.</th>", escape(stage));
     }
-    h.push_str("<th>SIMD utilization</th><th>min SSIM</th>");
+    h.push_str("<th>SIMD utilization</th><th>min SSIM</th><th>min SSIM, covered pixels</th>");
     for (i, class) in classes.iter().enumerate() {
         let _ = write!(
             h,
@@ -260,9 +260,10 @@ fn render_table(h: &mut String, section: &ReportSection) {
         }
         let _ = write!(
             h,
-            "<td>{:.1}%</td><td>{}</td>",
+            "<td>{:.1}%</td><td>{}</td><td>{}</td>",
             100.0 * t.cost.simd_utilization(),
-            t.min_ssim.map_or("-".to_string(), |s| format!("{s:.6}"))
+            t.min_ssim.map_or("-".to_string(), |s| format!("{s:.6}")),
+            t.min_ssim_covered.map_or("-".to_string(), |s| format!("{s:.6}"))
         );
         let bytes = classes.iter().map(|c| tr.bytes(c)).chain([tr.total()]);
         for bytes in bytes {

@@ -33,6 +33,7 @@ use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
 use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
+pub use resolve::clear_pixel;
 pub use sample_buffer::{depth_passes, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
 pub use view_pass::WORK_CHUNK;
 
