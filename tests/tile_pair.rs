@@ -209,3 +209,69 @@ fn reuse_thresholds_trade_cost_for_quality() {
     assert!(!bad.status.success());
     assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
 }
+
+/// The disparity order (Fig. 13) helps where an epipolar row holds several tile-pair
+/// sequences at clearly different depths: the depth-stack seen from 0.3 m in front of its
+/// first fence at 1280x1440 per eye puts the nearest fence 14-27 px of disparity away from
+/// the layers behind it (a tile is 16 px), so those layers form their own sequences and
+/// nearest-first lets early-z reject what they hide (34.3% -> 31.4% of per-pixel cost,
+/// 78 -> 68 MB of DRAM traffic; the paper: 22% -> 19.5% and 20% less bandwidth). Where layers
+/// are under a tile apart (the same view at 640x720) every row is one sequence and the order
+/// changes nothing.
+#[test]
+fn disparity_order_reduces_overdraw_and_traffic_across_separated_layers() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("close.toml");
+    std::fs::write(
+        &path,
+        "[[key]]\ntime = 0.0\nposition = [0.0, 1.4, 0.3]\nlook_at = [0.0, 1.3, -2.5]\n",
+    )
+    .unwrap();
+    let trace = dir.path().join("close.strace");
+    shadetrace_ok(
+        &[
+            "capture",
+            "builtin:depth-stack",
+            "--frames",
+            "1",
+            "--path",
+            path.to_str().unwrap(),
+            "-o",
+            trace.to_str().unwrap(),
+            "--quiet",
+        ],
+        None,
+    );
+    let run = |label: &str, extra: &[&str]| {
+        let mut args = vec!["--res", "1280x1440", "--no-images", "--no-reference"];
+        args.extend_from_slice(extra);
+        replay_into(
+            trace.to_str().unwrap(),
+            "tile-pair",
+            &args,
+            None,
+            &dir.path().join(label),
+        )
+    };
+    let (ordered, unordered) = (run("ordered", &[]), run("unordered", &["--no-disparity-order"]));
+    let shaded = |v: &serde_json::Value| v["total"]["shaded_pixels"].as_u64().unwrap();
+    let traffic = |v: &serde_json::Value| -> u64 {
+        let classes = v["total"]["traffic"].as_object().unwrap();
+        classes.values().map(|b| b.as_u64().unwrap()).sum()
+    };
+    let issued = |v: &serde_json::Value| -> u64 {
+        let stages = v["total"]["cost"].as_object().unwrap();
+        stages
+            .values()
+            .filter_map(|s| Some(s.get("alu")?.as_u64()? + s.get("tex")?.as_u64()?))
+            .sum()
+    };
+    assert!(shaded(&ordered) < shaded(&unordered));
+    assert!(
+        issued(&ordered) * 100 < issued(&unordered) * 95,
+        "{} vs {}",
+        issued(&ordered),
+        issued(&unordered)
+    );
+    assert!(traffic(&ordered) * 100 < traffic(&unordered) * 95);
+}
