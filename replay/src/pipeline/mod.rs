@@ -103,16 +103,6 @@ pub struct ViewOutput {
     pub cache: ShadingCacheStats,
 }
 
-impl ViewOutput {
-    pub fn image(&self) -> crate::images::Rgba8Image {
-        crate::images::Rgba8Image {
-            width: self.width,
-            height: self.height,
-            pixels: self.pixels.clone(),
-        }
-    }
-}
-
 /// The vertex stage's output for one view.
 pub struct ViewSetup {
     pub triangles: Vec<SetupTriangle>,
