@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use serde::Deserialize;
-use shadetrace_formats::{Aabb, Pose};
+use shadetrace_formats::{Aabb, Motion, Pose, Scene};
 
 use crate::error::{Error, Result};
 
@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 pub enum CameraPathSpec {
     /// The scene's default orbit (built-in scenes) or one fitted to the scene bounds.
     Orbit,
+    /// An interior walk inside the scene bounds at eye height ([`Walk::inside`]).
+    Walk,
     /// Camera `n` of the source file (glTF cameras, in node order).
     SourceCamera(usize),
     /// A keyframed flythrough TOML file.
@@ -25,6 +27,7 @@ impl CameraPathSpec {
     pub fn parse(s: &str) -> Result<CameraPathSpec> {
         match s {
             "orbit" => Ok(CameraPathSpec::Orbit),
+            "walk" => Ok(CameraPathSpec::Walk),
             "camera" => Ok(CameraPathSpec::SourceCamera(0)),
             _ => {
                 if let Some(n) = s.strip_prefix("camera:") {
@@ -36,7 +39,7 @@ impl CameraPathSpec {
                     Ok(CameraPathSpec::Flythrough(PathBuf::from(s)))
                 } else {
                     Err(Error::Options(format!(
-                        "--path {s}: expected orbit, camera, camera:N or a flythrough .toml file"
+                        "--path {s}: expected orbit, walk, camera, camera:N or a flythrough .toml file"
                     )))
                 }
             }
@@ -47,6 +50,7 @@ impl CameraPathSpec {
     pub fn describe(&self) -> String {
         match self {
             CameraPathSpec::Orbit => "orbit".into(),
+            CameraPathSpec::Walk => "walk".into(),
             CameraPathSpec::SourceCamera(n) => format!("camera:{n}"),
             CameraPathSpec::Flythrough(path) => format!(
                 "flythrough:{}",
@@ -105,6 +109,94 @@ impl Orbit {
         );
         Pose::look_at(eye, self.target, Vec3::Y)
     }
+}
+
+/// Eye height above the floor of the bounds on a walk (a standing adult).
+const EYE_HEIGHT_M: f32 = 1.7;
+
+/// A walk seen from inside, as the papers view their scenes (interiors at eye height, tens
+/// to hundreds of pixels per triangle), by a stated rule: the eye 1.7 m above the main
+/// floor ([`main_floor`]; the lowest point of the bounds without one), at most 60% of the
+/// scene's height above the floor for scenes smaller than a room, on a circle around the
+/// centre of the bounds with a radius of a quarter of the smaller horizontal half-extent,
+/// looking along the direction of travel, 8.5 degrees down. The frames cover one turn. It
+/// stays inside the bounds; whether the centre is open floor is the scene's matter (use a
+/// flythrough where it is not).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Walk {
+    pub center: Vec3,
+    pub radius: f32,
+    /// Eye height (world y).
+    pub eye_y: f32,
+}
+
+impl Walk {
+    pub fn inside(bounds: &Aabb, floor_y: Option<f32>) -> Walk {
+        if bounds.is_empty() {
+            return Walk {
+                center: Vec3::ZERO,
+                radius: 1.0,
+                eye_y: EYE_HEIGHT_M,
+            };
+        }
+        let (min, max) = (bounds.min, bounds.max);
+        let size = max - min;
+        let floor = floor_y.unwrap_or(min.y).clamp(min.y, max.y);
+        Walk {
+            center: (min + max) * 0.5,
+            radius: 0.25 * 0.5 * size.x.min(size.z),
+            eye_y: floor + EYE_HEIGHT_M.min(0.6 * (max.y - floor)),
+        }
+    }
+
+    pub fn pose(&self, frame: u32, frames: u32) -> Pose {
+        let angle = (360.0 * frame as f32 / frames.max(1) as f32).to_radians();
+        let (s, c) = (libm::sinf(angle), libm::cosf(angle));
+        let eye = Vec3::new(
+            self.center.x + self.radius * s,
+            self.eye_y,
+            self.center.z + self.radius * c,
+        );
+        // The direction of travel (counter-clockwise seen from above), a metre or a radius
+        // ahead, slightly down.
+        let ahead = self.radius.max(1.0);
+        let forward = Vec3::new(c, 0.0, -s);
+        Pose::look_at(eye, eye + forward * ahead - Vec3::Y * (0.15 * ahead), Vec3::Y)
+    }
+}
+
+/// Height bins of [`main_floor`], metres.
+const FLOOR_BIN_M: f32 = 0.25;
+
+/// The height of the main floor: of the static, upward-facing triangles (front face within
+/// 25 degrees of +y), the 25 cm height band holding the most area, at its area-weighted mean
+/// height. None when the scene has no such triangle. (Roofs face up too: a level whose roofs
+/// outweigh its floor needs a flythrough.)
+pub fn main_floor(scene: &Scene) -> Option<f32> {
+    let mut bands: std::collections::BTreeMap<i64, (f32, f32)> = std::collections::BTreeMap::new();
+    for mesh in scene.geometry.meshes.iter().filter(|m| m.motion == Motion::Static) {
+        for t in mesh.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| mesh.positions.get(i as usize).copied());
+            let (Some(a), Some(b), Some(c)) = (a, b, c) else {
+                continue;
+            };
+            let cross = (b - a).cross(c - a);
+            let area = 0.5 * cross.length();
+            if !(area.is_finite() && area > 0.0) {
+                continue;
+            }
+            // Front faces are counter-clockwise: a ceiling faces down and does not count.
+            if cross.y / (2.0 * area) < 0.9 {
+                continue;
+            }
+            let y = (a.y + b.y + c.y) / 3.0;
+            let band = bands.entry(libm::floorf(y / FLOOR_BIN_M) as i64).or_default();
+            band.0 += area;
+            band.1 += area * y;
+        }
+    }
+    let (_, &(area, weighted)) = bands.iter().max_by(|x, y| x.1 .0.total_cmp(&y.1 .0))?;
+    Some(weighted / area)
 }
 
 /// A flythrough file:
@@ -210,6 +302,7 @@ mod tests {
     #[test]
     fn parses_specs() {
         assert_eq!(CameraPathSpec::parse("orbit").unwrap(), CameraPathSpec::Orbit);
+        assert_eq!(CameraPathSpec::parse("walk").unwrap(), CameraPathSpec::Walk);
         assert_eq!(
             CameraPathSpec::parse("camera:2").unwrap(),
             CameraPathSpec::SourceCamera(2)
@@ -251,5 +344,70 @@ mod tests {
             let to_target = (orbit.target - pose.position).normalize();
             assert!(forward.dot(to_target) > 0.9999);
         }
+    }
+
+    #[test]
+    fn walk_stays_inside_at_eye_height_looking_ahead() {
+        let room = Aabb {
+            min: Vec3::new(-5.0, 0.0, -7.0),
+            max: Vec3::new(5.0, 4.0, 7.0),
+        };
+        let walk = Walk::inside(&room, None);
+        assert_eq!(walk.eye_y, 1.7);
+        let mut previous: Option<Vec3> = None;
+        for f in 0..8 {
+            let pose = walk.pose(f, 8);
+            let p = pose.position;
+            assert!(p.cmpgt(room.min).all() && p.cmplt(room.max).all(), "{p}");
+            assert!(((p - walk.center) * Vec3::new(1.0, 0.0, 1.0)).length() - 1.25 < 1e-5);
+            let forward = pose.orientation * Vec3::NEG_Z;
+            assert!(forward.y < 0.0 && forward.y > -0.2, "slightly down: {forward}");
+            if let Some(q) = previous {
+                // It looks where it goes next.
+                assert!(forward.dot((p - q).normalize()) > 0.9);
+            }
+            previous = Some(p);
+        }
+        // A tabletop scene 0.7 m high: the eye stays inside it.
+        let table = Aabb {
+            min: Vec3::new(-1.5, 0.0, -1.5),
+            max: Vec3::new(1.5, 0.7, 1.5),
+        };
+        assert!(Walk::inside(&table, None).eye_y < 0.7);
+        // On a raised main floor the eye stands on it.
+        assert!((Walk::inside(&room, Some(1.0)).eye_y - 2.7).abs() < 1e-6);
+    }
+
+    #[test]
+    fn main_floor_is_the_level_band_with_the_most_area() {
+        use shadetrace_formats::{Geometry, Mesh};
+        let quad = |y: f32, half: f32| Mesh {
+            positions: vec![
+                Vec3::new(-half, y, -half),
+                Vec3::new(half, y, -half),
+                Vec3::new(half, y, half),
+                Vec3::new(-half, y, half),
+            ],
+            indices: vec![0, 2, 1, 0, 3, 2],
+            ..Mesh::default()
+        };
+        let wall = Mesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(9.0, 0.0, 0.0),
+                Vec3::new(0.0, 9.0, 0.0),
+            ],
+            indices: vec![0, 1, 2],
+            ..Mesh::default()
+        };
+        // A pit bottom at -3 m (small), the main floor at 0.5 m (large), a wall.
+        let scene = Scene {
+            geometry: Geometry {
+                meshes: vec![quad(-3.0, 1.0), quad(0.5, 5.0), wall],
+            },
+            ..Scene::default()
+        };
+        assert!((main_floor(&scene).unwrap() - 0.5).abs() < 1e-6);
+        assert_eq!(main_floor(&Scene::default()), None);
     }
 }

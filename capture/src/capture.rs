@@ -11,7 +11,7 @@ use shadetrace_formats::{
     Pose, Scene, StereoRig, TraceWriter,
 };
 
-use crate::camera_path::{CameraPathSpec, Flythrough, Orbit};
+use crate::camera_path::{main_floor, CameraPathSpec, Flythrough, Orbit, Walk};
 use crate::error::{Error, Result};
 use crate::gltf_import::{load_gltf, ImportOptions};
 use crate::procedural;
@@ -193,6 +193,7 @@ pub fn capture(input: &Input, opts: &CaptureOptions, progress: &mut dyn FnMut(u3
     let motions: Vec<FrameMotion> = times.iter().map(|&t| source.motion.sample(t)).collect();
     let bounds = scene_bounds(&source.scene, &motions);
     let orbit = orbit.unwrap_or_else(|| Orbit::around(&bounds));
+    let walk = Walk::inside(&bounds, main_floor(&source.scene));
 
     let yfov_deg = opts
         .yfov_deg
@@ -210,6 +211,7 @@ pub fn capture(input: &Input, opts: &CaptureOptions, progress: &mut dyn FnMut(u3
         let head = match (&opts.path, &flythrough) {
             (_, Some(fly)) => fly.pose_at(time_s),
             (CameraPathSpec::SourceCamera(n), _) => source.motion.camera_pose(*n, time_s),
+            (CameraPathSpec::Walk, _) => walk.pose(index, opts.frames),
             _ => orbit.pose(index, opts.frames),
         };
         frames.push(Frame {

@@ -19,7 +19,8 @@ pub struct Args {
     /// Number of frames.
     #[arg(long, default_value_t = 1)]
     frames: u32,
-    /// Camera path: orbit, camera, camera:N (glTF camera N) or a flythrough .toml file.
+    /// Camera path: orbit, walk (inside the bounds at eye height), camera, camera:N (glTF
+    /// camera N) or a flythrough .toml file.
     #[arg(long, default_value = "orbit")]
     path: String,
     /// Interpupillary distance in metres (0.07 = 70 mm, as in the tile-pair paper).
