@@ -95,12 +95,13 @@ fn object_space_cost_stays_flat_under_tessellation() {
 }
 
 /// View-independent reuse: most of the right view's cache hits are the left view's shading,
-/// taken without a test, so moving from a per-view scheduler (no cross-view reuse) to the
-/// tile-pair scheduler costs the right view more SSIM than the left, on a specular scene, at
-/// COARSE2x2 (under the preset's DYNAMIC4x4 the refined cells shade finer in both views and
-/// the loss is below the noise of SSIM).
+/// taken without a test. On a specular scene at COARSE2x2 it costs both views a little SSIM
+/// against a per-view scheduler (no cross-view reuse), no more than 1e-4: the specular
+/// predicate refines highlights per pixel, so the left eye's specular is rarely what a right
+/// pixel shows. (Before specular and shadow ran on every fragment, as in He et al.'s
+/// shaders, the right view lost about twice what the left did; both losses were under 1e-5.)
 #[test]
-fn view_independent_reuse_costs_the_right_view_more() {
+fn view_independent_reuse_is_mostly_cross_view_and_costs_little_quality() {
     let dir = tempfile::tempdir().unwrap();
     let args = [
         "--res",
@@ -127,12 +128,13 @@ fn view_independent_reuse_costs_the_right_view_more() {
     assert!(hits(&paired, 1, "cross_view_hits") > 2 * hits(&paired, 1, "local_hits"));
     assert_eq!(hits(&alone, 1, "cross_view_hits"), 0);
     let loss = |view: usize| view_ssim(&alone, view) - view_ssim(&paired, view);
-    assert!(
-        loss(1) > 0.0 && loss(1) > 2.0 * loss(0),
-        "left {} right {}",
-        loss(0),
-        loss(1)
-    );
+    for view in 0..2 {
+        assert!(
+            loss(view) > 0.0 && loss(view) < 1e-4,
+            "view {view}: SSIM loss {}",
+            loss(view)
+        );
+    }
     // The cross-view reuse is what pays: the right view costs less than alone.
     let cost = |v: &Value| v["frames"][0]["views"][1]["relative_cost"].as_f64().unwrap();
     assert!(cost(&paired) < cost(&alone) - 0.1);

@@ -30,9 +30,10 @@ pub enum Block {
     CoarseSetup,
     /// Coarse-able: Lambert term of one directional light.
     Diffuse,
-    /// Coarse-able: Phong `(R·L)^n` of one directional light (lit side only).
+    /// Coarse-able: Phong `(R·L)^n` of one directional light (every fragment, as in He et al.'s
+    /// shaders, which do not test N·L).
     Specular,
-    /// Coarse-able: 5x5 PCF lookup of the shadow map (lit side only).
+    /// Coarse-able: 5x5 PCF lookup of the shadow map (every fragment).
     Shadow,
     /// Coarse-able: one point or spot light in range (distance, falloff, diffuse, specular).
     LocalLight,

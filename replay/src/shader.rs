@@ -117,9 +117,13 @@ impl ShaderEnv<'_> {
                             term.scale = 1.0;
                         }
                     }
+                    // The specular and shadow effects run on every fragment, facing the
+                    // light or not, as in He et al.'s shaders (Fig. 9: no test of N·L), so a
+                    // pixel costs the same on either side; what they add stays zero on the
+                    // unlit side.
                     if effects.contains(Effects::SPECULAR) {
+                        *flags |= LightBlocks::SPECULAR;
                         term.specular = if lit {
-                            *flags |= LightBlocks::SPECULAR;
                             material.specular_strength * phong(r.dot(l), material.specular_exponent)
                         } else {
                             0.0
@@ -127,11 +131,11 @@ impl ShaderEnv<'_> {
                     }
                     if effects.contains(Effects::SHADOW) && light.shadowed {
                         term.scale = match self.shadow {
-                            Some(map) if lit => {
+                            Some(map) => {
                                 *flags |= LightBlocks::SHADOW;
                                 map.pcf(inp.position, n_dot_l, log)
                             }
-                            _ => 1.0,
+                            None => 1.0,
                         };
                     }
                 }

@@ -62,9 +62,12 @@ impl MultirateJob {
         let mut shadow = false;
         if let (Some(k), Some(map)) = (ctx.env.lights.iter().position(|l| l.shadowed), ctx.env.shadow) {
             charged.push(Block::PredicateShadow);
-            if (0..4).any(|i| term(i, k).diffuse > 0.0) {
+            // Threshold 0 refines every effect; otherwise a block wholly facing away from the
+            // light has no shadow to refine.
+            shadow = t.shadow == 0.0;
+            if !shadow && (0..4).any(|i| term(i, k).diffuse > 0.0) {
                 let (lo, hi) = min_max((0..4).map(|i| term(i, k).scale));
-                shadow = t.shadow == 0.0 || hi - lo >= t.shadow;
+                shadow = hi - lo >= t.shadow;
                 // An infinite shadow threshold turns the whole shadow predicate off.
                 if let (false, true, Some(receivers)) = (shadow, t.shadow.is_finite(), ctx.env.receivers) {
                     shadow = receives_edge(map, receivers, positions);
