@@ -12,7 +12,7 @@ cat > "$tmp" <<'HEAD'
 # The committed trace corpus. Written by traces/regenerate.sh; checked by tests/corpus.rs,
 # which re-captures every entry and compares content hashes, so the corpus cannot drift.
 HEAD
-for name in floor spheres hairball depth-stack light-room; do
+for name in floor spheres hairball depth-stack light-room arena; do
   "$bin" capture "builtin:$name" --frames "$frames" -o "traces/$name.strace" --quiet
   hash=$("$bin" info "traces/$name.strace" | awk '/^content hash/ {print $3}')
   cat >> "$tmp" <<ENTRY

@@ -197,3 +197,36 @@ fn extreme_rigs_still_capture() {
         }
     }
 }
+
+/// The paper-like arena: textured, sunlit with shadows, and a skinned character whose
+/// vertices move from frame to frame while its triangles stay the same.
+#[test]
+fn arena_has_a_moving_skinned_dragon() {
+    let c = capture_builtin("arena", 2);
+    let f = c.meta.features;
+    assert!(f.contains(Feature::Skinning) && f.contains(Feature::Textures) && f.contains(Feature::ShadowedLight));
+    let dragon = c
+        .scene
+        .geometry
+        .meshes
+        .iter()
+        .find(|m| matches!(m.motion, Motion::Skinned { .. }))
+        .expect("a skinned mesh");
+    let [a, b] = [&c.frames[0].skinned[0], &c.frames[1].skinned[0]];
+    assert_eq!(a.positions.len(), dragon.positions.len());
+    assert_eq!(b.positions.len(), dragon.positions.len());
+    let moved = a
+        .positions
+        .iter()
+        .zip(&b.positions)
+        .filter(|(p, q)| (**p - **q).length() > 1e-3)
+        .count();
+    assert!(
+        moved > dragon.positions.len() / 2,
+        "{moved} of {} vertices moved",
+        dragon.positions.len()
+    );
+    for n in &b.normals {
+        assert!((n.length() - 1.0).abs() < 1e-4);
+    }
+}

@@ -1,6 +1,7 @@
 //! Built-in procedural scenes, addressed as `builtin:NAME` or `builtin:NAME?key=value`.
 
 mod builder;
+mod dragon;
 mod rng;
 mod scenes;
 mod sphere;
@@ -15,12 +16,13 @@ use crate::source::{NoMotion, SourceScene};
 pub use scenes::SPHERE_LEVELS;
 
 /// Names of the built-in scenes with a one-line description each.
-pub const BUILTIN_SCENES: [(&str, &str); 5] = [
+pub const BUILTIN_SCENES: [(&str, &str); 6] = [
     ("floor", "textured floor of large triangles with shadow-casting boxes"),
     ("spheres", "five textured specular spheres at tessellation levels 2..32 quads/patch, with patch ids (?subdiv=0..6 for one level)"),
     ("hairball", "ball of thin ribbons of tiny triangles (a few pixels each)"),
     ("depth-stack", "six staggered fence layers in front of a wall: overdraw and disocclusions"),
     ("light-room", "closed room lit by 48 point lights, no shadowed light"),
+    ("arena", "the tile-pair paper's regime: a sunlit, open-topped arena of large textured triangles with a skinned dragon, seen from inside"),
 ];
 
 /// Largest `subdiv` of the spheres scene (64 quads per patch edge, ~200K triangles each).
@@ -49,6 +51,7 @@ pub fn build(spec: &str) -> Result<(SourceScene, Orbit)> {
         "hairball" => scenes::hairball(),
         "depth-stack" => scenes::depth_stack(),
         "light-room" => scenes::light_room(),
+        "arena" => scenes::arena(),
         _ => {
             let names: Vec<&str> = BUILTIN_SCENES.iter().map(|(n, _)| *n).collect();
             return Err(Error::Options(format!(
@@ -65,8 +68,12 @@ pub fn build(spec: &str) -> Result<(SourceScene, Orbit)> {
         },
         scene: built.scene,
         cameras: Vec::new(),
-        motion: Box::new(NoMotion),
-        animation_duration_s: 0.0,
+        motion: if name == "arena" {
+            Box::new(dragon::Dragon)
+        } else {
+            Box::new(NoMotion)
+        },
+        animation_duration_s: if name == "arena" { dragon::SWIM_PERIOD_S } else { 0.0 },
         warnings: Vec::new(),
     };
     Ok((source, built.orbit))

@@ -241,6 +241,101 @@ pub fn depth_stack() -> Built {
     }
 }
 
+/// The paper-like scene (the tile-pair paper's Arena): an enclosed, open-topped arena of large
+/// textured triangles (floor, walls, tiered seating, pillars) in sunlight with shadows, and a
+/// skinned dragon swimming through the middle ([`super::dragon`]). The default path stands
+/// inside at eye height and circles the dragon.
+pub fn arena() -> Built {
+    let half = 24.0;
+    let mut ground = MeshBuilder::new("ground", 0);
+    ground.grid(
+        Vec3::new(-half, 0.0, half),
+        Vec3::X * 2.0 * half,
+        Vec3::NEG_Z * 2.0 * half,
+        6,
+        6,
+        Vec2::splat(12.0),
+    );
+    let mut walls = MeshBuilder::new("walls", 1);
+    let height = 10.0;
+    for (origin, along) in [
+        (Vec3::new(-half, 0.0, -half), Vec3::X),
+        (Vec3::new(half, 0.0, -half), Vec3::Z),
+        (Vec3::new(half, 0.0, half), Vec3::NEG_X),
+        (Vec3::new(-half, 0.0, half), Vec3::NEG_Z),
+    ] {
+        // Facing the centre: u along the wall, v up, u x v inwards.
+        walls.grid(origin, along * 2.0 * half, Vec3::Y * height, 6, 2, Vec2::new(12.0, 2.5));
+    }
+    // Three tiers of seating on a ring, each tier a riser and a tread of 48 segments.
+    let mut seats = MeshBuilder::new("seats", 1);
+    let segments = 48;
+    for tier in 0..3 {
+        let (r, y) = (17.0 + 2.0 * tier as f32, 0.8 * tier as f32);
+        for i in 0..segments {
+            let angle = |k: u32| std::f32::consts::TAU * k as f32 / segments as f32;
+            let (a0, a1) = (angle(i), angle(i + 1));
+            let on = |radius: f32, a: f32, h: f32| Vec3::new(radius * libm::cosf(a), h, radius * libm::sinf(a));
+            // Riser facing the centre, then the tread facing up (u along the ring).
+            let (base, top) = (on(r, a0, y), on(r, a0, y + 0.8));
+            seats.grid(base, on(r, a1, y) - base, Vec3::Y * 0.8, 1, 1, Vec2::new(2.0, 0.5));
+            seats.grid(
+                top,
+                on(r, a1, y + 0.8) - top,
+                on(r + 2.0, a0, y + 0.8) - top,
+                1,
+                1,
+                Vec2::new(2.0, 1.0),
+            );
+        }
+    }
+    let mut pillars = MeshBuilder::new("pillars", 2);
+    for i in 0..8 {
+        let a = std::f32::consts::TAU * (i as f32 + 0.5) / 8.0;
+        let (x, z) = (13.0 * libm::cosf(a), 13.0 * libm::sinf(a));
+        pillars.cuboid(
+            Vec3::new(x - 0.7, 0.0, z - 0.7),
+            Vec3::new(x + 0.7, 7.0, z + 0.7),
+            false,
+            1,
+        );
+    }
+    Built {
+        scene: Scene {
+            geometry: Geometry {
+                meshes: vec![
+                    ground.build(),
+                    walls.build(),
+                    seats.build(),
+                    pillars.build(),
+                    super::dragon::Dragon::mesh(3),
+                ],
+            },
+            materials: vec![
+                material("ground", [1.0; 4], Some(0), 16.0, 0.1),
+                material("stone", [1.0; 4], Some(1), 8.0, 0.05),
+                material("pillars", [1.0; 4], Some(2), 24.0, 0.2),
+                material("dragon", [0.35, 0.75, 0.4, 1.0], Some(3), 48.0, 0.5),
+            ],
+            textures: vec![
+                checker("arena-sand", 512, 8, [214, 190, 150], [180, 156, 118], 0.5, 11),
+                checker("arena-stone", 512, 4, [170, 165, 155], [120, 115, 110], 0.4, 12),
+                checker("arena-marble", 256, 2, [235, 232, 225], [150, 140, 130], 0.6, 13),
+                checker("dragon-scales", 256, 16, [120, 200, 110], [40, 110, 60], 0.5, 14),
+            ],
+            lights: vec![sun(Vec3::new(-0.45, -1.0, -0.35))],
+        },
+        orbit: Orbit {
+            center: Vec3::ZERO,
+            target: Vec3::new(0.0, 1.3, 0.0),
+            radius: 9.0,
+            height: 1.7,
+            start_deg: 0.0,
+            sweep_deg: 360.0,
+        },
+    }
+}
+
 /// A closed room lit by 48 coloured point lights and no sun: many unshadowed lights, so
 /// replay must skip the shadow pass entirely.
 pub fn light_room() -> Built {
