@@ -210,19 +210,27 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
 
     let _ = write!(
         h,
-        "<p class=\"files\">Files: <a href=\"{0}summary.csv\">summary.csv</a>",
-        escape(&section.files)
+        "<p class=\"files\">Files: <a href=\"{}\">summary.csv</a>",
+        escape(&file_href(&section.files, "summary.csv"))
     );
     for run in section.runs {
+        let file = format!("{}/results.json", run.result.preset);
         let _ = write!(
             h,
-            ", <a href=\"{}{}/results.json\">{}/results.json</a>",
-            escape(&section.files),
-            escape(&run.result.preset),
-            escape(&run.result.preset)
+            ", <a href=\"{}\">{}</a>",
+            escape(&file_href(&section.files, &file)),
+            escape(&file)
         );
     }
     h.push_str("</p>\n</section>\n");
+}
+
+/// A link to `file` in the section's folder `dir` ("" when beside the report).
+fn file_href(dir: &str, file: &str) -> String {
+    match dir.trim_end_matches('/') {
+        "" => file.to_string(),
+        dir => format!("{dir}/{file}"),
+    }
 }
 
 fn render_table(h: &mut String, section: &ReportSection) {
@@ -424,6 +432,15 @@ footer{margin-top:3em;font-size:.85em;color:#555}";
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// demo puts each scene's files in a folder named after it (the links read
+    /// `floorforward/results.json` before the separator was added).
+    #[test]
+    fn file_links_join_the_section_folder() {
+        assert_eq!(file_href("", "summary.csv"), "summary.csv");
+        assert_eq!(file_href("floor", "forward/results.json"), "floor/forward/results.json");
+        assert_eq!(file_href("floor/", "summary.csv"), "floor/summary.csv");
+    }
 
     #[test]
     fn text_helpers() {
