@@ -32,6 +32,19 @@ fn compare_writes_csv_and_a_self_contained_report() {
     assert_eq!(rows[0][col("relative_cost_pct")].parse::<f64>().unwrap(), 100.0);
     assert_eq!(rows[1][col("min_ssim")].parse::<f64>().unwrap(), 1.0);
     assert!(rows[2][col("relative_cost_pct")].parse::<f64>().unwrap() < 100.0);
+    // Per frame and view: 3 presets x 3 frames x 2 eyes, each view's own numbers.
+    let mut frames = csv::Reader::from_path(dir.path().join("frames.csv")).unwrap();
+    let fh = frames.headers().unwrap().clone();
+    let fcol = |name: &str| fh.iter().position(|h| h == name).unwrap();
+    let frows: Vec<csv::StringRecord> = frames.records().map(|r| r.unwrap()).collect();
+    assert_eq!(frows.len(), 18);
+    assert_eq!((&frows[0][fcol("eye")], &frows[1][fcol("eye")]), ("left", "right"));
+    let issued: u64 = frows[12..18]
+        .iter()
+        .map(|r| r[fcol("issued")].parse::<u64>().unwrap())
+        .sum();
+    assert_eq!(issued.to_string(), rows[2][col("issued")]);
+    assert!(frows[0][fcol("frame_texture_bytes")].parse::<u64>().unwrap() > 0);
     let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("data:image/png;base64,"));
     assert!(

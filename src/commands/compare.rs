@@ -87,6 +87,7 @@ pub fn run_presets(
     }
     let results: Vec<_> = runs.iter().map(|r| &r.result).collect();
     summary::write_csv(&dir.join("summary.csv"), &results)?;
+    summary::write_frames_csv(&dir.join("frames.csv"), &results)?;
     Ok(runs)
 }
 

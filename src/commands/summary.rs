@@ -104,6 +104,65 @@ pub fn write_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
     })
 }
 
+/// Writes `frames.csv` at `path`: one row per run, frame and view, with the view's counters,
+/// relative cost and quality, and the frame's DRAM bytes per class (shared by its two views,
+/// so they repeat on both rows).
+pub fn write_frames_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
+    let fail = |e: csv::Error| format!("{}: {e}", path.display());
+    let columns = Columns::of(runs);
+    write_atomically(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        let mut header: Vec<String> = ["preset", "scheduler", "scheme", "frame", "eye", "issued"]
+            .map(String::from)
+            .to_vec();
+        header.extend(columns.stages.iter().map(|s| format!("{s}_issued")));
+        header.extend(
+            [
+                "relative_cost_pct",
+                "simd_utilization_pct",
+                "ssim",
+                "ssim_covered",
+                "psnr_db",
+                "max_abs_error",
+                "fragments_shaded",
+                "pixels_covered",
+            ]
+            .map(String::from),
+        );
+        header.extend(columns.classes.iter().map(|c| format!("frame_{c}_bytes")));
+        csv.write_record(&header).map_err(fail)?;
+        for r in runs {
+            for frame in &r.frames {
+                for view in &frame.views {
+                    let q = view.quality;
+                    let mut row = vec![
+                        r.preset.clone(),
+                        r.scheduler.clone(),
+                        r.scheme.clone(),
+                        frame.frame.to_string(),
+                        view.eye.clone(),
+                        view.cost.issued().to_string(),
+                    ];
+                    row.extend(columns.stages.iter().map(|s| view.cost.stage(s).issued().to_string()));
+                    row.extend([
+                        opt(view.relative_cost, |c| (100.0 * c).to_string()),
+                        (100.0 * view.cost.simd_utilization()).to_string(),
+                        opt(q.and_then(|q| q.ssim), |s| s.to_string()),
+                        opt(q.and_then(|q| q.ssim_covered), |s| s.to_string()),
+                        opt(q.and_then(|q| q.psnr_db), |p| p.to_string()),
+                        q.map_or_else(String::new, |q| q.max_abs_error.to_string()),
+                        view.raster.fragments_shaded.to_string(),
+                        view.raster.pixels_covered.to_string(),
+                    ]);
+                    row.extend(columns.classes.iter().map(|c| frame.traffic.bytes(c).to_string()));
+                    csv.write_record(&row).map_err(fail)?;
+                }
+            }
+        }
+        csv.flush().map_err(|e| format!("{}: {e}", path.display()))
+    })
+}
+
 /// The summary as an aligned text table (header line, then one line per run).
 pub fn table(runs: &[&RunResult]) -> String {
     let columns = Columns::of(runs);
