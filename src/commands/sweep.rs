@@ -105,7 +105,7 @@ pub fn run(args: Args) -> Result<(), String> {
         .collect();
     // A file of its own needs the SVG namespace to open in a viewer or a document (inline in
     // the HTML report it is implied).
-    let svg = cost_quality_scatter(&points).replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1);
+    let svg = cost_quality_scatter(&points, true).replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1);
     write_atomically(&args.out.join("sweep.svg"), |w| {
         w.write_all(svg.as_bytes()).map_err(|e| e.to_string())
     })?;

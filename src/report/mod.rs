@@ -176,7 +176,7 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
     let _ = write!(
         h,
         "<h3>Shading cost against quality</h3>\n<figure>{}",
-        svg::cost_quality_scatter(&points)
+        svg::cost_quality_scatter(&points, false)
     );
     if points.len() < section.runs.len() {
         h.push_str("<figcaption>Runs without a relative cost or an SSIM (views smaller than the 11x11 SSIM window) are not plotted.</figcaption>");

@@ -101,30 +101,37 @@ pub fn traffic_bars(classes: &[String], bars: &[(String, Vec<u64>)]) -> String {
     s
 }
 
-/// Relative shading cost (%, x) against min SSIM (y), one labelled point per run:
-/// `(label, cost %, SSIM)`. Points with a non-finite coordinate are left out.
-pub fn cost_quality_scatter(points: &[(String, f64, f64)]) -> String {
+/// SSIM losses below this are drawn on the plot's floor (identical images have none).
+const LOSS_FLOOR: f64 = 1e-7;
+
+/// Relative cost (x, % of forward) against image quality: one point per `(label, cost,
+/// min SSIM)`, each in its own colour with a legend beside the plot. Quality is drawn as
+/// the SSIM loss `1 - SSIM` on a log scale, where 0.999 and 0.99999 are two decades apart
+/// instead of overprinting near 1. `joined` links the points in order (a sweep's curve).
+pub fn cost_quality_scatter(points: &[(String, f64, f64)], joined: bool) -> String {
     let points: Vec<&(String, f64, f64)> = points
         .iter()
         .filter(|(_, x, y)| x.is_finite() && y.is_finite())
         .collect();
-    let (width, height) = (560.0, 380.0);
-    let (left, right, top, bottom) = (64.0, 130.0, 16.0, 46.0);
+    let (width, height) = (600.0, 380.0);
+    let (left, right, top, bottom) = (70.0, 170.0, 16.0, 46.0);
     let (plot_w, plot_h) = (width - left - right, height - top - bottom);
 
     let x_max = points.iter().map(|p| p.1).fold(100.0, f64::max);
     let x_ticks = nice_ticks(0.0, x_max * 1.05, 6);
-    let y_lo = points.iter().map(|p| p.2).fold(1.0, f64::min);
-    let y_hi = points.iter().map(|p| p.2).fold(1.0, f64::max);
-    // SSIM sits near 1: zoom in on the range used, but never to less than 0.005.
-    let span = (y_hi - y_lo).max(0.005) * 1.25;
-    let y_ticks = nice_ticks((y_hi - span).max(-1.0), y_hi, 5);
     let (x0, x1) = (x_ticks[0], *x_ticks.last().unwrap_or(&1.0));
-    let (y0, y1) = (y_ticks[0], *y_ticks.last().unwrap_or(&1.0));
+    let loss = |ssim: f64| (1.0 - ssim).max(LOSS_FLOOR);
+    // Whole decades from the floor to at least 1e-4 and at least the largest loss.
+    let top_decade = points
+        .iter()
+        .map(|p| loss(p.2).log10().ceil())
+        .fold(-4.0, f64::max)
+        .min(0.0);
+    let floor_decade = LOSS_FLOOR.log10();
     let px = |x: f64| left + plot_w * (x - x0) / (x1 - x0).max(1e-12);
-    let py = |y: f64| top + plot_h * (1.0 - (y - y0) / (y1 - y0).max(1e-12));
+    let py = |ssim: f64| top + plot_h * (1.0 - (loss(ssim).log10() - floor_decade) / (top_decade - floor_decade));
 
-    let mut s = svg_open(width, height, "relative shading cost against min SSIM");
+    let mut s = svg_open(width, height, "relative shading cost against SSIM loss");
     for &t in &x_ticks {
         let x = px(t);
         let _ = write!(
@@ -135,46 +142,53 @@ pub fn cost_quality_scatter(points: &[(String, f64, f64)]) -> String {
             format_tick(t)
         );
     }
-    for &t in &y_ticks {
-        let y = py(t);
+    for decade in (floor_decade as i32)..=(top_decade as i32) {
+        let y = top + plot_h * (1.0 - (f64::from(decade) - floor_decade) / (top_decade - floor_decade));
+        let label = if f64::from(decade) == floor_decade {
+            format!("≤1e{decade}")
+        } else {
+            format!("1e{decade}")
+        };
         let _ = write!(
             s,
-            r##"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" {FONT}>{}</text>"##,
+            r##"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" {FONT}>{label}</text>"##,
             left + plot_w,
             left - 6.0,
             y + 4.0,
-            format_tick(t)
         );
     }
     let _ = write!(
         s,
-        r#"<rect x="{left}" y="{top}" width="{plot_w}" height="{plot_h}" fill="none" stroke="black"/><text x="{:.1}" y="{:.1}" text-anchor="middle" {FONT}>relative shading cost (% of forward)</text><text transform="translate(14 {:.1}) rotate(-90)" text-anchor="middle" {FONT}>min SSIM</text>"#,
+        r#"<rect x="{left}" y="{top}" width="{plot_w}" height="{plot_h}" fill="none" stroke="black"/><text x="{:.1}" y="{:.1}" text-anchor="middle" {FONT}>relative shading cost (% of forward)</text><text transform="translate(14 {:.1}) rotate(-90)" text-anchor="middle" {FONT}>1 - min SSIM (log)</text>"#,
         left + plot_w / 2.0,
         height - 8.0,
         top + plot_h / 2.0
     );
-    // Label boxes already drawn, as (x0, y0, x1, y1): nearby runs (often several at 100%
-    // and SSIM 1) get their labels moved down a line until they no longer overprint.
-    let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
-    for (label, x, y) in points {
-        let (cx, cy) = (px(*x), py(*y));
-        let (lx, w) = (cx + 8.0, label.chars().count() as f64 * CHAR_WIDTH);
-        let mut ly = cy - 6.0;
-        // Capped at one line per label already placed, so a crowded plot stays cheap.
-        for _ in 0..=placed.len() {
-            let overlaps = placed
-                .iter()
-                .any(|&(x0, y0, x1, y1)| lx < x1 && lx + w > x0 && ly - 11.0 < y1 && ly + 3.0 > y0);
-            if !overlaps {
-                break;
-            }
-            ly += 14.0;
-        }
-        placed.push((lx, ly - 11.0, lx + w, ly + 3.0));
+    if joined && points.len() > 1 {
+        let path: Vec<String> = points
+            .iter()
+            .map(|p| format!("{:.1},{:.1}", px(p.1), py(p.2)))
+            .collect();
         let _ = write!(
             s,
-            r##"<circle cx="{cx:.1}" cy="{cy:.1}" r="5" fill="#D55E00" stroke="black"><title>{}: {x:.2}%, SSIM {y:.6}</title></circle><text x="{lx:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
-            escape(label),
+            r##"<polyline points="{}" fill="none" stroke="#777" stroke-width="1.5"/>"##,
+            path.join(" ")
+        );
+    }
+    for (i, (label, x, y)) in points.iter().enumerate() {
+        let (cx, cy, colour) = (px(*x), py(*y), class_colour(i));
+        let _ = write!(
+            s,
+            r##"<circle cx="{cx:.1}" cy="{cy:.1}" r="5" fill="{colour}" stroke="black"><title>{}: {x:.2}%, SSIM {y:.6}</title></circle>"##,
+            escape(label)
+        );
+        // The legend: one row per point, in the margin right of the plot.
+        let (lx, ly) = (left + plot_w + 16.0, top + 8.0 + 15.0 * i as f64);
+        let _ = write!(
+            s,
+            r##"<circle cx="{lx:.1}" cy="{:.1}" r="5" fill="{colour}" stroke="black"/><text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
+            ly - 4.0,
+            lx + 10.0,
             escape(label)
         );
     }
@@ -250,41 +264,42 @@ mod tests {
         assert!(bars.starts_with("<svg") && bars.ends_with("</svg>"));
         assert!(bars.contains("a&lt;b") && !bars.contains("a<b"));
         assert!(traffic_bars(&classes, &[]).ends_with("</svg>"));
-        let scatter = cost_quality_scatter(&[
-            ("x&y".to_string(), 100.0, 1.0),
-            ("z".to_string(), 100.0, 1.0),
-            ("nan".to_string(), f64::NAN, 1.0),
-        ]);
+        let scatter = cost_quality_scatter(
+            &[
+                ("x&y".to_string(), 100.0, 1.0),
+                ("z".to_string(), 100.0, 1.0),
+                ("nan".to_string(), f64::NAN, 1.0),
+            ],
+            false,
+        );
         assert!(scatter.contains("x&amp;y") && !scatter.contains(">nan<"));
-        assert_eq!(scatter.matches("<circle").count(), 2);
+        assert_eq!(scatter.matches("<title>").count(), 3, "the plot's title and two points");
         assert!(!scatter.contains("NaN") && !bars.contains("NaN"));
-        assert!(cost_quality_scatter(&[]).ends_with("</svg>"));
+        assert!(cost_quality_scatter(&[], true).ends_with("</svg>"));
     }
 
     #[test]
-    fn nearby_scatter_labels_do_not_overprint() {
-        let label_y = |svg: &str, label: &str| -> f64 {
-            let end = svg.find(&format!(">{label}</text>")).unwrap();
-            let start = svg[..end].rfind(" y=\"").unwrap() + 4;
+    fn scatter_draws_ssim_loss_on_a_log_scale_with_a_legend() {
+        let point_y = |svg: &str, label: &str| -> f64 {
+            let end = svg.find(&format!("<title>{label}:")).unwrap();
+            let start = svg[..end].rfind(" cy=\"").unwrap() + 5;
             svg[start..].split('"').next().unwrap().parse().unwrap()
         };
-        let points: Vec<(String, f64, f64)> = [
-            ("forward", 100.0),
-            ("sort-middle", 100.0),
-            ("he-4x4", 26.6),
-            ("he-dynamic", 26.7),
-            ("far", 60.0),
-        ]
-        .iter()
-        .map(|&(l, x)| (l.to_string(), x, 1.0))
-        .collect();
-        let svg = cost_quality_scatter(&points);
-        assert!(label_y(&svg, "sort-middle") - label_y(&svg, "forward") >= 14.0);
-        assert!(label_y(&svg, "he-dynamic") - label_y(&svg, "he-4x4") >= 14.0);
-        assert_eq!(
-            label_y(&svg, "far"),
-            label_y(&svg, "forward"),
-            "a clear label stays by its dot"
-        );
+        let points: Vec<(String, f64, f64)> = [("forward", 100.0, 1.0), ("a", 40.0, 0.99999), ("b", 30.0, 0.999)]
+            .iter()
+            .map(|&(l, x, y)| (l.to_string(), x, y))
+            .collect();
+        let svg = cost_quality_scatter(&points, false);
+        // Two decades of loss apart, not pinned together near SSIM 1; no loss sits lowest.
+        let (f, a, b) = (point_y(&svg, "forward"), point_y(&svg, "a"), point_y(&svg, "b"));
+        assert!(f > a && a > b, "{f} {a} {b}");
+        assert!(a - b > 50.0, "{a} vs {b}");
+        // Every point has its own colour and a legend row.
+        for (i, (label, _, _)) in points.iter().enumerate() {
+            assert!(svg.contains(&format!(">{label}</text>")));
+            assert_eq!(svg.matches(&format!("fill=\"{}\"", class_colour(i))).count(), 2);
+        }
+        assert!(!svg.contains("<polyline"));
+        assert!(cost_quality_scatter(&points, true).contains("<polyline"));
     }
 }
