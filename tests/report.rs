@@ -13,7 +13,7 @@ fn compare_writes_csv_and_a_self_contained_report() {
             "compare",
             "traces/floor.strace",
             "--presets",
-            "forward,sort-middle,he-2x2",
+            "forward,sort-middle,he-2x2,texel",
             "--res",
             "64x72",
             "--out",
@@ -47,6 +47,11 @@ fn compare_writes_csv_and_a_self_contained_report() {
     assert!(frows[0][fcol("frame_texture_bytes")].parse::<u64>().unwrap() > 0);
     let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("data:image/png;base64,"));
+    // texel cannot run on the floor (no unique UV atlas): the report says so.
+    assert!(
+        html.contains("Not run on this trace: preset texel"),
+        "skipped preset not reported"
+    );
     assert!(
         !html.contains("src=\"http") && !html.contains("href=\"http"),
         "report must be self-contained"

@@ -47,6 +47,12 @@ pub fn preset_list(names: &[String]) -> Result<Vec<Preset>, String> {
     Ok(presets)
 }
 
+/// The runs of one trace, and why the presets it could not run were left out.
+pub struct PresetRuns {
+    pub runs: Vec<RunOutput>,
+    pub skipped: Vec<String>,
+}
+
 /// Runs every preset on `trace` against the reference, frame by frame, and writes
 /// per-preset images and results and `summary.csv` into `dir`. Presets the trace cannot run
 /// are reported and left out.
@@ -56,13 +62,18 @@ pub fn run_presets(
     opts: &ReplayOptions,
     dir: &Path,
     quiet: bool,
-) -> Result<Vec<RunOutput>, String> {
+) -> Result<PresetRuns, String> {
     let mut runnable = Vec::new();
+    let mut skipped = Vec::new();
     for preset in presets {
         match preset.supports(&trace.prepared.scene) {
             Ok(()) => runnable.push((*preset, opts.clone())),
-            Err(why) if !quiet => println!("skipped: {why}"),
-            Err(_) => {}
+            Err(why) => {
+                if !quiet {
+                    println!("skipped: {why}");
+                }
+                skipped.push(why);
+            }
         }
     }
     let dirs: Vec<(PathBuf, bool)> = runnable
@@ -88,7 +99,7 @@ pub fn run_presets(
     let results: Vec<_> = runs.iter().map(|r| &r.result).collect();
     summary::write_csv(&dir.join("summary.csv"), &results)?;
     summary::write_frames_csv(&dir.join("frames.csv"), &results)?;
-    Ok(runs)
+    Ok(PresetRuns { runs, skipped })
 }
 
 pub fn run(args: Args) -> Result<(), String> {
@@ -97,7 +108,7 @@ pub fn run(args: Args) -> Result<(), String> {
     opts.check()?;
     let trace = load_trace(&args.trace)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    let runs = run_presets(&trace, &presets, &opts, &args.out, args.quiet)?;
+    let PresetRuns { runs, skipped } = run_presets(&trace, &presets, &opts, &args.out, args.quiet)?;
     let note = match opts.resolution {
         Some((w, h)) => format!(
             "Replayed at {w}x{h} per eye (the trace was captured at {}x{}).",
@@ -108,6 +119,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let section = ReportSection {
         trace: TraceSummary::of(&trace),
         runs: &runs,
+        skipped: &skipped,
         files: String::new(),
     };
     let html = args.out.join("index.html");

@@ -60,7 +60,7 @@ pub fn run(args: Args) -> Result<(), String> {
         }
         let runs = run_presets(&trace, &presets, &opts, &dir, args.quiet)?;
         if !args.quiet {
-            let results: Vec<_> = runs.iter().map(|r| &r.result).collect();
+            let results: Vec<_> = runs.runs.iter().map(|r| &r.result).collect();
             println!("{}", summary::table(&results).trim_end());
         }
         traces.push(TraceSummary::of(&trace));
@@ -71,7 +71,8 @@ pub fn run(args: Args) -> Result<(), String> {
         .zip(&all_runs)
         .map(|(trace, (name, runs))| ReportSection {
             trace,
-            runs,
+            runs: &runs.runs,
+            skipped: &runs.skipped,
             files: name.to_string(),
         })
         .collect();

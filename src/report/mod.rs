@@ -49,6 +49,8 @@ pub struct ReportSection<'a> {
     pub trace: TraceSummary,
     /// The runs in table order; only their first replayed frame's images are shown.
     pub runs: &'a [RunOutput],
+    /// Why presets that were asked for did not run on this trace (one line each).
+    pub skipped: &'a [String],
     /// Where this section's `summary.csv` and per-preset folders are, relative to the
     /// report ("" when beside it), for links.
     pub files: String,
@@ -149,6 +151,9 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
     }
     let _ = writeln!(h, "<dt>features</dt><dd>{}</dd></dl>", escape(&t.features));
     render_table(h, section);
+    for why in section.skipped {
+        let _ = writeln!(h, "<p class=\"skipped\">Not run on this trace: {}</p>", escape(why));
+    }
 
     let classes = traffic_names(section.runs.iter().map(|run| &run.result.total.traffic));
     let bars: Vec<(String, Vec<u64>)> = section
