@@ -121,3 +121,39 @@ fn sweep_spans_refine_all_to_refine_none() {
         .unwrap()
         .starts_with(r#"<svg xmlns="http://www.w3.org/2000/svg" "#));
 }
+
+/// With the reference run, each view gets an error image against it; without, none.
+#[test]
+fn replay_writes_error_images_against_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |label: &str, extra: &[&str]| {
+        let out = dir.path().join(label);
+        let out_arg = out.display().to_string();
+        let mut args = vec![
+            "replay",
+            "traces/hairball.strace",
+            "--preset",
+            "amfs",
+            "--res",
+            "96x108",
+            "--frames",
+            "0",
+            "--out",
+            &out_arg,
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        assert!(shadetrace(&args, None).status.success());
+        out
+    };
+    let with = run("with", &[]);
+    for eye in ["left", "right"] {
+        let error = image::open(with.join(format!("frame0000-{eye}-error.png"))).unwrap();
+        assert!(
+            error.width() >= 96 && error.height() > 108,
+            "{eye}: the view and its legend"
+        );
+    }
+    let without = run("without", &["--no-reference"]);
+    assert!(!without.join("frame0000-left-error.png").exists());
+}

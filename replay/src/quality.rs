@@ -280,6 +280,17 @@ pub fn max_abs_error(a: &Rgba8Image, b: &Rgba8Image) -> u8 {
         .unwrap_or(0)
 }
 
+/// Per pixel, the largest difference of the 8-bit RGB channels (for error images); zero
+/// where a pixel is missing from either image.
+pub fn error_map(reference: &Rgba8Image, test: &Rgba8Image) -> Vec<u8> {
+    reference
+        .pixels
+        .iter()
+        .zip(&test.pixels)
+        .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap_or(0))
+        .collect()
+}
+
 /// All quality metrics of `test` against `reference` (ARCHITECTURE.md, Definitions:
 /// quality), with the covered-pixel SSIM over the pixels where `covered` is true (one flag
 /// per pixel, row-major; the reference's covered pixels). `ssim` is None for images smaller

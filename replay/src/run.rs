@@ -59,6 +59,8 @@ pub struct ViewImages {
     pub cost_heat: Vec<u32>,
     /// Per pixel, the effects refined to per-pixel rate (`Effects` bits).
     pub refinement: Vec<u8>,
+    /// Per pixel, the largest 8-bit channel difference from the reference (when it ran).
+    pub error: Option<Vec<u8>>,
 }
 
 pub struct FrameImages {
@@ -212,16 +214,17 @@ impl Replay {
                 height: view.height,
                 pixels: view.pixels,
             };
-            let (relative_cost, quality) = match reference {
+            let (relative_cost, quality, error) = match reference {
                 Some(r) => {
                     let issued = r.result.views[v].cost.issued();
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
                     let reference = &r.images.views[v].color;
                     let clear = clear_pixel();
                     let covered: Vec<bool> = reference.pixels.iter().map(|p| *p != clear).collect();
-                    (rel, Some(quality::compare(reference, &color, &covered)?))
+                    let error = quality::error_map(reference, &color);
+                    (rel, Some(quality::compare(reference, &color, &covered)?), Some(error))
                 }
-                None => (None, None),
+                None => (None, None, None),
             };
             self.total.cost.add(&view.cost);
             self.total.shaded_pixels += view.raster.fragments_shaded;
@@ -254,6 +257,7 @@ impl Replay {
                 color,
                 cost_heat: view.cost_heat,
                 refinement: view.refinement,
+                error,
             });
         }
         self.total.traffic.add(&out.traffic);

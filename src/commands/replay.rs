@@ -77,8 +77,12 @@ pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
     })
 }
 
-/// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map and, for
-/// schemes that refine, one refinement map per effect; and the stereo pair.
+/// Top of the error images' scale, in 8-bit levels (larger errors saturate).
+const ERROR_SCALE: f32 = 32.0;
+
+/// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map, the error
+/// against the reference when it ran and, for schemes that refine, one refinement map per
+/// effect; and the stereo pair.
 pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> Result<(), String> {
     let stem = format!("frame{:04}", frame.frame);
     for (eye, view) in ["left", "right"].iter().zip(&frame.views) {
@@ -92,6 +96,18 @@ pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> 
             "instr per pixel, p99 scale",
         )
         .write_png(dir.join(format!("{stem}-{eye}-cost.png")))?;
+        if let Some(error) = &view.error {
+            // A fixed scale, so error images compare across presets and frames.
+            let error: Vec<f32> = error.iter().map(|&e| f32::from(e)).collect();
+            heat_map(
+                &error,
+                view.color.width,
+                view.color.height,
+                Some(ERROR_SCALE),
+                "max channel error vs reference",
+            )
+            .write_png(dir.join(format!("{stem}-{eye}-error.png")))?;
+        }
         if refinement {
             for (bit, effect) in [
                 (Effects::DIFFUSE, "diffuse"),
