@@ -136,9 +136,9 @@ pub fn run_frame(
         receivers: receivers.as_ref(),
     };
     // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
-    let derived = scheme.view_pass();
+    let declared = scheme.view_pass();
     let views: [ViewSetup; 2] = Eye::BOTH.map(|eye| {
-        if derived.is_some_and(|p| p.to != p.from && p.to as usize == eye as usize) {
+        if declared.is_some_and(|p| p.to != p.from && p.to as usize == eye as usize) {
             return ViewSetup {
                 triangles: Vec::new(),
                 stats: VertexStats::default(),
@@ -174,10 +174,10 @@ pub fn run_frame(
         offsets: sample_offsets(opts.msaa),
         simd_width: opts.simd_width,
         z_prepass: opts.z_prepass,
-        keep_buffers: derived.is_some(),
+        keep_buffers: declared.is_some(),
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
-    let derived = derived.map(|pass| {
+    let made = declared.map(|pass| {
         let budget = (prepared.lights.len(), opts.simd_width);
         (
             pass,
@@ -190,14 +190,14 @@ pub fn run_frame(
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
     };
-    let passes = derived.as_ref().map(|(_, made)| made.outputs.as_slice());
+    let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
     traffic.add_bytes(INDICES, schedule.lists.index_bytes);
     if scheduler.stores_vertex_output() {
         traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
     }
     let [left, right] = views;
-    let views = [(0, left), (1, right)].map(|(v, setup)| match &derived {
+    let views = [(0, left), (1, right)].map(|(v, setup)| match &made {
         Some((pass, made)) if pass.to as usize == v => {
             let mut view = assemble::view(
                 v,

@@ -47,7 +47,7 @@ fn assemble_view<'a>(
 
 /// What a view pass produced: the made view and the outputs of the pass and of each
 /// work-list chunk, in order.
-pub struct DerivedOutput {
+pub struct ViewPassOutput {
     pub frame: SampleBuffer,
     pub outputs: Vec<JobOutput>,
 }
@@ -61,7 +61,7 @@ pub fn run(
     samples: usize,
     (lights, simd_width): (usize, u32),
     jobs: &[JobOutput],
-) -> DerivedOutput {
+) -> ViewPassOutput {
     let (width, height) = (ctx.width, ctx.height);
     let from = assemble_view(
         pass.from,
@@ -108,5 +108,5 @@ pub fn run(
         }
         outputs.push(out);
     }
-    DerivedOutput { frame: to, outputs }
+    ViewPassOutput { frame: to, outputs }
 }
