@@ -45,6 +45,25 @@ pub fn results(dir: &Path) -> Value {
     v
 }
 
+/// Checks a replay's results at extreme settings: every view was compared with the reference
+/// (quality present), and every view that shaded anything has a positive, finite relative
+/// cost. (Non-finite floats never reach results.json: the writer refuses them.)
+pub fn assert_sane(v: &Value, what: &str) {
+    // `results` strips the wall-clock timing; put a neutral one back to parse the rest.
+    let mut v = v.clone();
+    v["timing"] = serde_json::json!({"wall_s": 0.0, "threads": 1, "pixels_per_s": 0.0});
+    let r: shadetrace_formats::results::RunResult = serde_json::from_value(v).expect("results parse");
+    for frame in &r.frames {
+        for view in &frame.views {
+            assert!(view.quality.is_some(), "{what}: no quality for {}", view.eye);
+            if view.cost.issued() > 0 {
+                let rel = view.relative_cost.expect("a relative cost");
+                assert!(rel.is_finite() && rel > 0.0, "{what}: relative cost {rel}");
+            }
+        }
+    }
+}
+
 /// Replays `trace` with `preset` and extra flags into `out`, asserting success; returns
 /// its `results.json` (timing removed).
 pub fn replay_into(trace: &str, preset: &str, extra: &[&str], threads: Option<&str>, out: &Path) -> Value {
