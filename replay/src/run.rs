@@ -117,7 +117,16 @@ pub fn replay_all(
             Some(r) => {
                 let images = r.frame(trace, index, None)?;
                 let result = r.results.last().cloned().ok_or("the reference made no frame")?;
-                Some(ReferenceFrame { result, images })
+                let clear = clear_pixel();
+                let covered = images
+                    .views
+                    .each_ref()
+                    .map(|v| v.color.pixels.iter().map(|p| *p != clear).collect());
+                Some(ReferenceFrame {
+                    result,
+                    images,
+                    covered,
+                })
             }
             None => None,
         };
@@ -148,10 +157,12 @@ struct Replay {
     first_images: Option<FrameImages>,
 }
 
-/// A frame's results with its images, as the reference keeps them for comparison.
+/// A frame's results with its images, as the reference keeps them for comparison, and per
+/// view the pixels it covers (for covered-pixel SSIM), found once for every preset.
 struct ReferenceFrame {
     result: FrameResult,
     images: FrameImages,
+    covered: [Vec<bool>; 2],
 }
 
 impl Replay {
@@ -219,10 +230,12 @@ impl Replay {
                     let issued = r.result.views[v].cost.issued();
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
                     let reference = &r.images.views[v].color;
-                    let clear = clear_pixel();
-                    let covered: Vec<bool> = reference.pixels.iter().map(|p| *p != clear).collect();
                     let error = quality::error_map(reference, &color);
-                    (rel, Some(quality::compare(reference, &color, &covered)?), Some(error))
+                    (
+                        rel,
+                        Some(quality::compare(reference, &color, &r.covered[v])?),
+                        Some(error),
+                    )
                 }
                 None => (None, None, None),
             };

@@ -6,22 +6,27 @@ use super::tile_pair_cache::REUSE;
 use super::{MultirateJob, COARSE};
 use crate::cost::FINE;
 use crate::scheme::Accounting;
+use shadetrace_formats::results::StageCost;
 
 impl MultirateJob {
     /// Issues coarse lanes (coarse stage) and cache-query lanes (reuse stage) of a range as
     /// SIMD groups, each stage packed separately.
     fn issue_coarse(&mut self, lanes: std::ops::Range<usize>, acc: &mut Accounting) {
+        // Counted locally and added once: no lookup of a stage by name per lane.
+        let (mut coarse, mut reuse) = (StageCost::default(), StageCost::default());
         for lane in &self.coarse_lanes[lanes] {
             if lane.reuse {
                 self.reuse_packer
-                    .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(REUSE), acc.heat);
+                    .lane(&lane.blocks, true, lane.pixel, &mut reuse, acc.heat);
             } else {
                 self.coarse_packer
-                    .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(COARSE), acc.heat);
+                    .lane(&lane.blocks, true, lane.pixel, &mut coarse, acc.heat);
             }
         }
-        self.coarse_packer.flush(acc.cost.stage_mut(COARSE), acc.heat);
-        self.reuse_packer.flush(acc.cost.stage_mut(REUSE), acc.heat);
+        self.coarse_packer.flush(&mut coarse, acc.heat);
+        self.reuse_packer.flush(&mut reuse, acc.heat);
+        acc.cost.stage_mut(COARSE).add(&coarse);
+        acc.cost.stage_mut(REUSE).add(&reuse);
     }
 
     /// Issues the unit's coarse and fine lanes as SIMD groups under the configured schedule.
@@ -35,18 +40,14 @@ impl MultirateJob {
                     let lanes = &self.fine_lanes;
                     self.order.sort_by_key(|&q| lanes[4 * q].key);
                 }
+                let fine = acc.cost.stage_mut(FINE);
                 for &q in &self.order {
                     for lane in &self.fine_lanes[4 * q..4 * q + 4] {
-                        self.fine_packer.lane(
-                            &lane.blocks,
-                            lane.useful,
-                            lane.pixel,
-                            acc.cost.stage_mut(FINE),
-                            acc.heat,
-                        );
+                        self.fine_packer
+                            .lane(&lane.blocks, lane.useful, lane.pixel, fine, acc.heat);
                     }
                 }
-                self.fine_packer.flush(acc.cost.stage_mut(FINE), acc.heat);
+                self.fine_packer.flush(fine, acc.heat);
             }
             SimdSchedule::SingleThread => self.issue_single_thread(acc),
         }
@@ -68,15 +69,15 @@ impl MultirateJob {
             let group = start..(start + w).min(self.coarse_used);
             self.issue_coarse(group.clone(), acc);
             let iterations = per_lane[group.clone()].iter().map(Vec::len).max().unwrap_or(0);
+            let fine = acc.cost.stage_mut(FINE);
             for it in 0..iterations {
                 for fragments in &per_lane[group.clone()] {
                     if let Some(&f) = fragments.get(it) {
                         let lane = &self.fine_lanes[f];
-                        self.fine_packer
-                            .lane(&lane.blocks, true, lane.pixel, acc.cost.stage_mut(FINE), acc.heat);
+                        self.fine_packer.lane(&lane.blocks, true, lane.pixel, fine, acc.heat);
                     }
                 }
-                self.fine_packer.flush(acc.cost.stage_mut(FINE), acc.heat);
+                self.fine_packer.flush(fine, acc.heat);
             }
         }
     }
