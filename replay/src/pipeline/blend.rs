@@ -23,13 +23,15 @@ pub struct MergeInput<'a> {
     pub colors: &'a [[Vec4; 4]],
 }
 
+/// Returns whether a depth was written (alpha-tested fragments write late).
 pub fn merge(
     input: &MergeInput,
     buffer: &mut SampleBuffer,
     layout: &FramebufferLayout,
     raster: &mut RasterStats,
     log: &mut AccessLog,
-) {
+) -> bool {
+    let mut depth_written = false;
     let samples = buffer.samples;
     let setup = input.setup;
     for ((quad, passed), lane_colors) in input.quads.iter().zip(input.colors) {
@@ -61,6 +63,7 @@ pub fn merge(
                         let z = setup.depth(setup.edges(sx, sy));
                         if depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i]) {
                             buffer.write_depth(i, z, setup.prim, input.tri);
+                            depth_written = true;
                             buffer.color[i] = src.truncate().extend(1.0);
                         }
                     }
@@ -70,4 +73,5 @@ pub fn merge(
             log.touch(Stream::Color, layout.color_line(input.view, x, y), true);
         }
     }
+    depth_written
 }

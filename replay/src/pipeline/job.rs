@@ -179,6 +179,7 @@ fn geometry_command(
     quads.clear();
     let layout = ctx.layout;
     let writes_depth = opaque && (prepass || !ctx.z_prepass);
+    let mut depth_written = false;
     rasterize(setup, buffer.rect, ctx.offsets, |q| {
         if !prepass {
             raster.quads_rasterized += 1;
@@ -212,6 +213,7 @@ fn geometry_command(
                 }
             }
             log.touch(Stream::Depth, layout.depth_line(unit.view, x, y), wrote);
+            depth_written |= wrote;
         }
         if passed != 0 && shading {
             quads.push((
@@ -247,9 +249,12 @@ fn geometry_command(
             quads: &scratch.quads,
             colors: &scratch.colors,
         };
-        merge(&input, buffer, &layout, raster, &mut log);
+        depth_written |= merge(&input, buffer, &layout, raster, &mut log);
     }
-    buffer.update_max_depth();
+    // The tile's farthest depth only moves where depth was written.
+    if depth_written {
+        buffer.update_max_depth();
+    }
     log
 }
 
