@@ -238,3 +238,223 @@ fn bad_traces_fail_cleanly_in_info() {
         );
     }
 }
+
+/// Runs the binary to completion and returns its output and peak resident memory in KiB
+/// (from `wait4`, so it is this child's own peak, whatever else the test process runs).
+/// A run longer than 60 s is killed and fails the test: a FIFO must not block forever.
+#[cfg(target_os = "linux")]
+fn shadetrace_measured(args: &[&str]) -> (Output, u64) {
+    use std::io::Read;
+    use std::process::Stdio;
+    // The child is reaped by wait4 below, which std's `wait` cannot give the usage of.
+    #[allow(clippy::zombie_processes)]
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shadetrace"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id() as libc::pid_t;
+    let (mut out, mut err) = (child.stdout.take().unwrap(), child.stderr.take().unwrap());
+    let readers = (
+        std::thread::spawn(move || {
+            let mut b = Vec::new();
+            out.read_to_end(&mut b).map(|_| b)
+        }),
+        std::thread::spawn(move || {
+            let mut b = Vec::new();
+            err.read_to_end(&mut b).map(|_| b)
+        }),
+    );
+    let started = std::time::Instant::now();
+    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
+    loop {
+        // SAFETY: wait4 on our own child; status and usage are valid out-pointers.
+        let done = unsafe { libc::wait4(pid, &mut status, libc::WNOHANG, &mut usage) };
+        assert!(done >= 0, "wait4 failed");
+        if done == pid {
+            break;
+        }
+        if started.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            let _ = child.wait();
+            panic!("shadetrace {args:?} still running after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let output = Output {
+        status: std::os::unix::process::ExitStatusExt::from_raw(status),
+        stdout: readers.0.join().unwrap().unwrap(),
+        stderr: readers.1.join().unwrap().unwrap(),
+    };
+    (output, usage.ru_maxrss as u64)
+}
+
+/// Peak memory allowed on a hostile input (the README's promise).
+#[cfg(target_os = "linux")]
+const HOSTILE_INPUT_RSS_KIB: u64 = 256 << 10;
+
+/// A zstd frame of `len` zeros, compressed as it is generated.
+fn zeros_frame(len: u64) -> Vec<u8> {
+    use std::io::Write;
+    let mut encoder = zstd::stream::Encoder::new(Vec::new(), 1).unwrap();
+    encoder.set_pledged_src_size(Some(len)).unwrap();
+    let block = vec![0u8; 1 << 20];
+    for _ in 0..len >> 20 {
+        encoder.write_all(&block).unwrap();
+    }
+    encoder.finish().unwrap()
+}
+
+/// The chunks of a trace file as (kind, header+payload bytes), End excluded.
+fn split_chunks(bytes: &[u8]) -> Vec<(u32, Vec<u8>)> {
+    let mut chunks = Vec::new();
+    let mut at = 12;
+    while at < bytes.len() - 52 {
+        let word = |o: usize, n: usize| {
+            u64::from_le_bytes(
+                bytes[o..o + n]
+                    .iter()
+                    .chain([0u8; 8].iter())
+                    .take(8)
+                    .copied()
+                    .collect::<Vec<_>>()
+                    .try_into()
+                    .unwrap(),
+            )
+        };
+        let (kind, packed) = (word(at, 4) as u32, word(at + 12, 8) as usize);
+        chunks.push((kind, bytes[at..at + 20 + packed].to_vec()));
+        at += 20 + packed;
+    }
+    chunks
+}
+
+fn chunk(kind: u32, raw_len: u64, packed: &[u8]) -> Vec<u8> {
+    let mut c = kind.to_le_bytes().to_vec();
+    c.extend_from_slice(&raw_len.to_le_bytes());
+    c.extend_from_slice(&(packed.len() as u64).to_le_bytes());
+    c.extend_from_slice(packed);
+    c
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn decompression_bombs_are_refused_in_bounded_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/traces/floor.strace")).unwrap();
+    let (head, end) = (&good[..12], &good[good.len() - 52..]);
+    let chunks = split_chunks(&good);
+    let gib = zeros_frame(1 << 30);
+    let build = |name: &str, chunks: &[Vec<u8>]| {
+        let mut bytes = head.to_vec();
+        chunks.iter().for_each(|c| bytes.extend_from_slice(c));
+        bytes.extend_from_slice(end);
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    };
+    let plain: Vec<Vec<u8>> = chunks.iter().map(|(_, c)| c.clone()).collect();
+    let mut unknown = plain.clone();
+    unknown.insert(5, chunk(0x77, 1 << 30, &gib));
+    let textures: Vec<Vec<u8>> = chunks
+        .iter()
+        .map(|(kind, c)| if *kind == 4 { chunk(4, 1 << 30, &gib) } else { c.clone() })
+        .collect();
+    let mut three = plain.clone();
+    for kind in [0x70, 0x71, 0x72] {
+        three.insert(5, chunk(kind, 1 << 30, &gib));
+    }
+    for (path, needle) in [
+        (build("unknown.strace", &unknown), "Unknown(0x77) chunk"),
+        (build("textures.strace", &textures), "Textures chunk"),
+        (build("three.strace", &three), "decompression bomb"),
+    ] {
+        let p = path.to_str().unwrap();
+        assert!(std::fs::metadata(&path).unwrap().len() < 1 << 20, "a small file");
+        let out = dir.path().join("out");
+        for args in [
+            vec!["info", p],
+            vec!["replay", p, "--out", out.to_str().unwrap(), "--res", "32x36"],
+        ] {
+            let (o, rss_kib) = shadetrace_measured(&args);
+            assert_clean_failure(&o, needle, None);
+            assert!(
+                stderr(&o).contains(path.file_name().unwrap().to_str().unwrap()),
+                "names the file"
+            );
+            assert!(rss_kib < HOSTILE_INPUT_RSS_KIB, "{args:?}: peak RSS {rss_kib} KiB");
+        }
+    }
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn gltf_files_outside_the_model_folder_devices_and_fifos_are_never_read() {
+    let outer = tempfile::tempdir().unwrap();
+    let dir = outer.path().join("model");
+    std::fs::create_dir(&dir).unwrap();
+    // A file beside the model's folder that would import fine if it were read.
+    std::fs::write(outer.path().join("secret.bin"), support::triangle_buffer()).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.bin")).unwrap();
+    std::os::unix::fs::symlink("../secret.bin", dir.join("link.bin")).unwrap();
+    let fifo = dir.join("fifo.bin");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    std::fs::create_dir(dir.join("sub.bin")).unwrap();
+    let out = outer.path().join("out.strace");
+    for (uri, needle) in [
+        ("/etc/passwd", "outside the model's folder"),
+        ("../secret.bin", "outside the model's folder"),
+        ("sub.bin/../../secret.bin", "outside the model's folder"),
+        ("sub.bin/../inside/../../secret.bin", "outside the model's folder"),
+        ("/dev/zero", "outside the model's folder"),
+        ("zero.bin", "outside the model's folder"),
+        ("link.bin", "outside the model's folder"),
+        ("fifo.bin", "not a regular file"),
+        ("sub.bin", "not a regular file"),
+    ] {
+        let gltf = support::write_gltf_with_buffer_uri(&dir, uri);
+        let (o, rss_kib) = shadetrace_measured(&["capture", gltf.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        assert_clean_failure(&o, needle, Some(&out));
+        assert!(stderr(&o).contains("buffer 0"), "names the buffer: {}", stderr(&o));
+        assert!(rss_kib < HOSTILE_INPUT_RSS_KIB, "{uri}: peak RSS {rss_kib} KiB");
+    }
+    // The same bytes inside the folder import.
+    std::fs::write(dir.join("inside.bin"), support::triangle_buffer()).unwrap();
+    let gltf = support::write_gltf_with_buffer_uri(&dir, "inside.bin");
+    let o = shadetrace(&[
+        "capture",
+        gltf.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+#[cfg(target_os = "linux")]
+fn an_image_bomb_is_refused_from_its_header() {
+    let dir = tempfile::tempdir().unwrap();
+    // 16000 x 16000 grey, a few hundred KB as PNG: 1 GB as RGBA.
+    let mut png = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new_with_quality(
+        &mut png,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::NoFilter,
+    );
+    image::ImageEncoder::write_image(
+        encoder,
+        &vec![0u8; 16000 * 16000],
+        16000,
+        16000,
+        image::ExtendedColorType::L8,
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("big.png"), &png).unwrap();
+    let gltf = support::write_gltf_with_image_uri(dir.path(), "big.png");
+    let out = dir.path().join("out.strace");
+    let (o, rss_kib) = shadetrace_measured(&["capture", gltf.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, "16000x16000", Some(&out));
+    assert!(rss_kib < HOSTILE_INPUT_RSS_KIB, "peak RSS {rss_kib} KiB");
+}

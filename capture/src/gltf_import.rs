@@ -44,6 +44,9 @@ use geometry::{TriangleMode, Triangles};
 
 pub use material::phong_from_metallic_roughness;
 
+/// Largest `.gltf` / `.glb` file capture reads.
+const MAX_GLTF_FILE_BYTES: u64 = 4 << 30;
+
 /// How a glTF file is imported.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImportOptions {
@@ -167,7 +170,13 @@ fn scene_roots(root: &json::Root, warnings: &mut Warnings) -> Fallible<Vec<usize
 }
 
 fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScene> {
-    let bytes = std::fs::read(path).map_err(|e| input(format!("cannot read file: {e}")))?;
+    let bytes =
+        data::read_regular_file(path, MAX_GLTF_FILE_BYTES).map_err(|e| input(format!("cannot read file: {e}")))?;
+    if bytes.len() as u64 > MAX_GLTF_FILE_BYTES {
+        return Err(input(format!(
+            "larger than the {MAX_GLTF_FILE_BYTES} bytes capture reads"
+        )));
+    }
     let sha256: [u8; 32] = Sha256::digest(&bytes).into();
     let container = data::split_container(&bytes)?;
     let mut warnings = Warnings {
@@ -176,7 +185,14 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
     };
     check_extensions(container.json, &mut warnings)?;
     let root = json::Root::from_slice(container.json).map_err(|e| input(format!("invalid glTF JSON: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new(""));
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let base = folder
+        .canonicalize()
+        .map_err(|e| input(format!("cannot resolve the model's folder: {e}")))?;
+    let base = base.as_path();
     let reader = data::Reader::new(&root, container.bin, base)?;
     let motion = motion::GltfMotion::new(&root, &reader, &mut warnings)?;
     let roots = scene_roots(&root, &mut warnings)?;

@@ -12,7 +12,8 @@
 //!
 //! The reader indexes chunk headers only, so seeking to frame N decodes nothing else.
 //! Every declared length is checked against the bytes the file really has before any
-//! buffer is sized from it.
+//! buffer is sized from it, and decompressed lengths are bounded by the file's size
+//! ([`decompressed_limit`]), so a small hostile file cannot make a reader allocate much.
 
 use std::io::{Read, Seek, SeekFrom, Write};
 
@@ -33,6 +34,12 @@ pub const DEFAULT_ZSTD_LEVEL: i32 = 9;
 pub const MAX_HEADER_EXTENSION: u32 = 64 * 1024;
 /// Largest decompressed chunk a reader accepts.
 pub const MAX_CHUNK_RAW_LEN: u64 = 4 << 30;
+/// A chunk may decompress to at most this many times its compressed size, and a file's
+/// chunks to this many times the file's size in all (real traces stay under 20x) ...
+pub const MAX_EXPANSION: u64 = 256;
+/// ... or to this many bytes, whichever is larger (highly compressible scenes, such as
+/// uniform textures, stay readable when small).
+pub const EXPANSION_ALLOWANCE: u64 = 64 << 20;
 const CHUNK_HEADER_LEN: u64 = 20;
 const FILE_HEADER_LEN: u64 = 12;
 const HASH_LEN: u64 = 32;
@@ -40,6 +47,15 @@ const HASH_LEN: u64 = 32;
 const DECODE_LIMIT: usize = 4 << 30;
 /// Decompression buffers start no larger than this, then grow with real output.
 const INITIAL_DECOMPRESS_CAPACITY: u64 = 16 << 20;
+/// Block size of streamed reads (hashing, decompression input).
+const STREAM_BLOCK: usize = 64 << 10;
+
+/// The most bytes `compressed` bytes may decompress to (per chunk, or per file in all).
+pub fn decompressed_limit(compressed: u64) -> u64 {
+    compressed
+        .saturating_mul(MAX_EXPANSION)
+        .clamp(EXPANSION_ALLOWANCE, MAX_CHUNK_RAW_LEN)
+}
 
 /// The kind of a chunk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -133,6 +149,10 @@ pub struct TraceWriter<W: Write> {
     hasher: ContentHasher,
     meta: Meta,
     frames_written: u32,
+    /// Bytes written so far and their decompressed payload bytes, to refuse a file
+    /// readers would refuse.
+    bytes_written: u64,
+    raw_written: u64,
 }
 
 impl<W: Write> TraceWriter<W> {
@@ -151,6 +171,8 @@ impl<W: Write> TraceWriter<W> {
             hasher: ContentHasher::default(),
             meta: meta.clone(),
             frames_written: 0,
+            bytes_written: FILE_HEADER_LEN,
+            raw_written: 0,
         };
         writer.write_value(ChunkKind::Meta, meta)?;
         writer.write_value(ChunkKind::Geometry, &scene.geometry)?;
@@ -200,8 +222,17 @@ impl<W: Write> TraceWriter<W> {
         encoder.set_pledged_src_size(Some(raw.len() as u64))?;
         encoder.write_all(raw)?;
         let packed = encoder.finish()?;
+        let (raw_len, packed_len) = (raw.len() as u64, packed.len() as u64);
+        self.bytes_written += CHUNK_HEADER_LEN + packed_len;
+        self.raw_written += raw_len;
+        if raw_len > decompressed_limit(packed_len) || self.raw_written > decompressed_limit(self.bytes_written) {
+            return Err(Error::Invalid(format!(
+                "{kind} chunk compresses {raw_len} bytes to {packed_len}, more than readers accept \
+                 (at most {MAX_EXPANSION}x, or {EXPANSION_ALLOWANCE} bytes)"
+            )));
+        }
         self.hasher.add_chunk(kind.code(), raw);
-        self.write_header(kind, raw.len() as u64, packed.len() as u64)?;
+        self.write_header(kind, raw_len, packed_len)?;
         self.out.write_all(&packed)?;
         Ok(())
     }
@@ -354,11 +385,26 @@ impl<R: Read + Seek> TraceReader<R> {
     }
 
     /// Decompresses every chunk and checks the content hash against the `End` chunk.
+    /// Chunks are hashed as they decompress, a block at a time, so memory stays flat.
     pub fn verify(&mut self) -> Result<ContentHash> {
         let mut hasher = ContentHasher::default();
-        for i in 0..self.chunks.len() {
-            let raw = self.raw_chunk(i)?;
-            hasher.add_chunk(self.chunks[i].kind.code(), &raw);
+        let mut block = vec![0u8; STREAM_BLOCK];
+        for &info in &self.chunks {
+            hasher.begin_chunk(info.kind.code(), info.raw_len);
+            let mut decoder = chunk_decoder(&mut self.src, info)?;
+            let mut total = 0u64;
+            loop {
+                let n = decoder.read(&mut block).map_err(|e| decompress_error(info, e))?;
+                if n == 0 {
+                    break;
+                }
+                total += n as u64;
+                if total > info.raw_len {
+                    break;
+                }
+                hasher.update(&block[..n]);
+            }
+            check_raw_len(info, total)?;
         }
         let computed = hasher.finish();
         if computed != self.stored_hash {
@@ -381,43 +427,57 @@ impl<R: Read + Seek> TraceReader<R> {
     }
 }
 
-/// Reads and decompresses one chunk, its length checked against its header. The packed
-/// length was checked against the file length when the chunk was indexed, and the output
-/// buffer grows with real output rather than with the declared length.
-fn read_raw<R: Read + Seek>(src: &mut R, info: ChunkInfo) -> Result<Vec<u8>> {
+/// A streaming decoder of one chunk's payload: the compressed bytes are read from the file
+/// as they are needed, never whole.
+fn chunk_decoder<R: Read + Seek>(src: &mut R, info: ChunkInfo) -> Result<impl Read + '_> {
     src.seek(SeekFrom::Start(info.offset))?;
-    let mut packed = vec![0u8; info.packed_len as usize];
-    src.read_exact(&mut packed)?;
-    let decompress_err = |e: std::io::Error| Error::Decompress {
+    let packed = std::io::BufReader::with_capacity(STREAM_BLOCK, src.take(info.packed_len));
+    let decoder = zstd::stream::read::Decoder::with_buffer(packed)
+        .map_err(|e| decompress_error(info, e))?
+        .single_frame();
+    // One byte more than declared, to tell "longer than the header says" from "exact".
+    Ok(decoder.take(info.raw_len + 1))
+}
+
+fn decompress_error(info: ChunkInfo, e: std::io::Error) -> Error {
+    Error::Decompress {
         kind: info.kind,
         msg: e.to_string(),
-    };
-    let decoder = zstd::stream::read::Decoder::with_buffer(&packed[..])
-        .map_err(decompress_err)?
-        .single_frame();
-    let mut raw = Vec::with_capacity(info.raw_len.min(INITIAL_DECOMPRESS_CAPACITY) as usize);
-    decoder
-        .take(info.raw_len + 1)
-        .read_to_end(&mut raw)
-        .map_err(decompress_err)?;
-    if raw.len() as u64 != info.raw_len {
-        let got = if raw.len() as u64 > info.raw_len {
-            format!("more than {}", info.raw_len)
-        } else {
-            raw.len().to_string()
-        };
-        return Err(Error::Corrupt(format!(
-            "{} chunk decompresses to {got} bytes, header says {}",
-            info.kind, info.raw_len
-        )));
     }
+}
+
+fn check_raw_len(info: ChunkInfo, got: u64) -> Result<()> {
+    if got == info.raw_len {
+        return Ok(());
+    }
+    let got = if got > info.raw_len {
+        format!("more than {}", info.raw_len)
+    } else {
+        got.to_string()
+    };
+    Err(Error::Corrupt(format!(
+        "{} chunk decompresses to {got} bytes, header says {}",
+        info.kind, info.raw_len
+    )))
+}
+
+/// Reads and decompresses one chunk, its length checked against its header. The declared
+/// length was bounded when the chunk was indexed, and the output buffer grows with real
+/// output rather than with the declared length.
+fn read_raw<R: Read + Seek>(src: &mut R, info: ChunkInfo) -> Result<Vec<u8>> {
+    let mut raw = Vec::with_capacity(info.raw_len.min(INITIAL_DECOMPRESS_CAPACITY) as usize);
+    chunk_decoder(src, info)?
+        .read_to_end(&mut raw)
+        .map_err(|e| decompress_error(info, e))?;
+    check_raw_len(info, raw.len() as u64)?;
     Ok(raw)
 }
 
 /// Reads chunk headers from `pos` to the `End` chunk, checking every length against the
-/// bytes left in the file.
+/// bytes left in the file and every decompressed length against [`decompressed_limit`].
 fn index_chunks<R: Read + Seek>(src: &mut R, mut pos: u64, file_len: u64) -> Result<(Vec<ChunkInfo>, ContentHash)> {
     let mut chunks = Vec::new();
+    let mut raw_total = 0u64;
     loop {
         let left = file_len - pos;
         if left == 0 {
@@ -451,6 +511,26 @@ fn index_chunks<R: Read + Seek>(src: &mut R, mut pos: u64, file_len: u64) -> Res
             return Err(Error::Truncated(format!(
                 "{kind} chunk at byte {pos} declares {packed_len} bytes, only {available} remain"
             )));
+        }
+        if kind != ChunkKind::End {
+            let limit = decompressed_limit(packed_len);
+            if raw_len > limit {
+                return Err(Error::Expansion {
+                    kind,
+                    offset: pos,
+                    raw_len,
+                    packed_len,
+                    limit,
+                });
+            }
+            raw_total += raw_len;
+            if raw_total > decompressed_limit(file_len) {
+                return Err(Error::Corrupt(format!(
+                    "chunks up to the {kind} chunk at byte {pos} decompress to {raw_total} bytes, \
+                     more than the {} a {file_len}-byte file may hold",
+                    decompressed_limit(file_len)
+                )));
+            }
         }
         if kind == ChunkKind::End {
             if raw_len != HASH_LEN || packed_len != HASH_LEN {

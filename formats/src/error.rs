@@ -27,6 +27,16 @@ pub enum Error {
         len: u64,
         limit: u64,
     },
+    #[error(
+        "{kind} chunk at byte {offset} declares {raw_len} bytes from {packed_len} compressed, more than the {limit} a reader allows (a decompression bomb, or a corrupt header)"
+    )]
+    Expansion {
+        kind: ChunkKind,
+        offset: u64,
+        raw_len: u64,
+        packed_len: u64,
+        limit: u64,
+    },
     #[error("corrupt: {0}")]
     Corrupt(String),
     #[error("{kind} chunk does not decompress: {msg}")]

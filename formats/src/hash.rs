@@ -50,9 +50,18 @@ pub(crate) struct ContentHasher(Sha256);
 
 impl ContentHasher {
     pub fn add_chunk(&mut self, kind: u32, raw: &[u8]) {
+        self.begin_chunk(kind, raw.len() as u64);
+        self.update(raw);
+    }
+
+    /// Starts a chunk whose `raw_len` decompressed bytes follow through [`Self::update`].
+    pub fn begin_chunk(&mut self, kind: u32, raw_len: u64) {
         self.0.update(kind.to_le_bytes());
-        self.0.update((raw.len() as u64).to_le_bytes());
-        self.0.update(raw);
+        self.0.update(raw_len.to_le_bytes());
+    }
+
+    pub fn update(&mut self, bytes: &[u8]) {
+        self.0.update(bytes);
     }
 
     pub fn finish(self) -> ContentHash {

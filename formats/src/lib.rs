@@ -10,7 +10,10 @@ pub mod rig;
 pub mod schema;
 pub mod validate;
 
-pub use container::{ChunkInfo, ChunkKind, TraceReader, TraceWriter, DEFAULT_ZSTD_LEVEL, FORMAT_MAJOR, FORMAT_MINOR};
+pub use container::{
+    decompressed_limit, ChunkInfo, ChunkKind, TraceReader, TraceWriter, DEFAULT_ZSTD_LEVEL, EXPANSION_ALLOWANCE,
+    FORMAT_MAJOR, FORMAT_MINOR, MAX_EXPANSION,
+};
 pub use error::{Error, Result};
 pub use features::{Feature, Features};
 pub use hash::ContentHash;

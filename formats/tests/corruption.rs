@@ -92,7 +92,10 @@ fn absurd_lengths_are_refused_before_allocating() {
         let err = read_all(&bad).unwrap_err();
         let msg = err.to_string();
         assert!(
-            matches!(err, Error::Oversized { .. } | Error::Truncated(_) | Error::Corrupt(_)),
+            matches!(
+                err,
+                Error::Oversized { .. } | Error::Expansion { .. } | Error::Truncated(_) | Error::Corrupt(_)
+            ),
             "field {field} = {value}: {msg}"
         );
     }

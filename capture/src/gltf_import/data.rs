@@ -95,11 +95,20 @@ fn lenient_json(json: &[u8]) -> &[u8] {
     &json[..end]
 }
 
+/// Largest buffer a file may declare (`byteLength`) and the importer will read.
+pub(super) const MAX_BUFFER_BYTES: u64 = 2 << 30;
+/// Largest external image file the importer will read.
+pub(super) const MAX_IMAGE_FILE_BYTES: u64 = 256 << 20;
+
 /// The bytes a URI points to, plus the media type a `data:` URI declares.
 ///
-/// Relative references are resolved against `base` (the directory of the glTF file);
-/// URIs with a scheme other than `data:` (http, file, ...) are not followed.
-pub(super) fn read_uri(uri: &str, base: &Path, what: &str) -> Fallible<(Vec<u8>, Option<String>)> {
+/// Relative references are resolved against `folder` (the canonical directory of the glTF
+/// file) and must name a regular file inside it, symbolic links resolved: absolute paths,
+/// `..` out of the folder, devices and FIFOs are refused, so a shared model cannot make
+/// capture read (and put into a trace) anything but its own files. At most `max_len + 1`
+/// bytes are read, so that the caller can tell a longer file. URIs with a scheme other than `data:` (http, file, ...) are not
+/// followed.
+pub(super) fn read_uri(uri: &str, folder: &Path, what: &str, max_len: u64) -> Fallible<(Vec<u8>, Option<String>)> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (header, payload) = rest
             .split_once(',')
@@ -115,9 +124,62 @@ pub(super) fn read_uri(uri: &str, base: &Path, what: &str) -> Fallible<(Vec<u8>,
         return Err(unsupported(format!("URI scheme `{scheme}:` in {what}")));
     }
     let relative = percent_decode(uri).ok_or_else(|| input(format!("{what}: malformed URI {uri:?}")))?;
-    let bytes =
-        std::fs::read(base.join(&relative)).map_err(|e| input(format!("{what}: cannot read {relative}: {e}")))?;
+    let outside = || {
+        input(format!(
+            "{what}: {relative:?} is outside the model's folder {} (only files inside it are read)",
+            folder.display()
+        ))
+    };
+    // Lexically first, so that nothing outside is even looked up; then with symbolic links
+    // resolved.
+    if escapes(Path::new(&relative)) {
+        return Err(outside());
+    }
+    let cannot = |e: std::io::Error| input(format!("{what}: cannot read {relative}: {e}"));
+    let path = folder.join(&relative).canonicalize().map_err(cannot)?;
+    if !path.starts_with(folder) {
+        return Err(outside());
+    }
+    let bytes = read_regular_file(&path, max_len).map_err(|e| input(format!("{what}: {relative}: {e}")))?;
     Ok((bytes, None))
+}
+
+/// Whether a relative path names something outside its base: it is absolute (or has a
+/// drive prefix), or a `..` climbs above where it started.
+fn escapes(path: &Path) -> bool {
+    use std::path::Component;
+    let mut depth = 0usize;
+    for component in path.components() {
+        match component {
+            Component::Prefix(_) | Component::RootDir => return true,
+            Component::ParentDir if depth == 0 => return true,
+            Component::ParentDir => depth -= 1,
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+        }
+    }
+    false
+}
+
+/// At most `max_len + 1` bytes of `path`, which must be a regular file.
+pub(super) fn read_regular_file(path: &Path, max_len: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let regular = |m: &std::fs::Metadata| {
+        if m.is_file() {
+            Ok(())
+        } else {
+            Err("not a regular file (devices, FIFOs and directories are refused)".to_string())
+        }
+    };
+    // Checked before opening: opening a FIFO would block until someone writes to it.
+    regular(&std::fs::metadata(path).map_err(|e| e.to_string())?)?;
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    regular(&file.metadata().map_err(|e| e.to_string())?)?;
+    let mut bytes = Vec::new();
+    file.take(max_len.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
 }
 
 /// The last path segment of a relative URI (a texture's fallback name); `None` for
@@ -246,19 +308,30 @@ pub(super) struct Reader<'a> {
 
 impl<'a> Reader<'a> {
     /// Loads every buffer: the GLB `BIN` chunk for the buffer without a URI, otherwise
-    /// the URI's bytes. Each must hold at least its declared `byteLength`.
-    pub fn new(root: &'a json::Root, mut bin: Option<&[u8]>, base: &Path) -> Fallible<Reader<'a>> {
+    /// the URI's bytes, read up to the declared `byteLength` (at most
+    /// [`MAX_BUFFER_BYTES`]). Each must hold at least its declared `byteLength`.
+    pub fn new(root: &'a json::Root, mut bin: Option<&[u8]>, folder: &Path) -> Fallible<Reader<'a>> {
         let mut buffers = Vec::with_capacity(root.buffers.len());
         for (i, buffer) in root.buffers.iter().enumerate() {
             let what = format!("buffer {i}");
+            let declared = buffer.byte_length.0;
+            if declared > MAX_BUFFER_BYTES {
+                return Err(input(format!(
+                    "{what} declares byteLength {declared}, more than the {MAX_BUFFER_BYTES} bytes capture reads"
+                )));
+            }
             let bytes = match &buffer.uri {
-                Some(uri) => read_uri(uri, base, &what)?.0,
+                Some(uri) => {
+                    let mut bytes = read_uri(uri, folder, &what, declared)?.0;
+                    // A file's bytes past the declared length are not the buffer's.
+                    bytes.truncate(declared as usize);
+                    bytes
+                }
                 None => bin
                     .take()
                     .ok_or_else(|| input(format!("{what} has no uri and there is no GLB BIN chunk for it")))?
                     .to_vec(),
             };
-            let declared = buffer.byte_length.0;
             if (bytes.len() as u64) < declared {
                 return Err(input(format!(
                     "{what} holds {} bytes but declares byteLength {declared}",
@@ -475,12 +548,13 @@ mod tests {
             "data:application/octet-stream;base64,AQID",
             Path::new("/nonexistent"),
             "b",
+            16,
         )
         .unwrap();
         assert_eq!(bytes, [1, 2, 3]);
         assert_eq!(media.as_deref(), Some("application/octet-stream"));
         assert!(matches!(
-            read_uri("https://example.com/a.bin", Path::new("."), "b"),
+            read_uri("https://example.com/a.bin", Path::new("."), "b", 16),
             Err(super::super::Problem::Unsupported(_))
         ));
     }

@@ -10,7 +10,10 @@ use std::path::Path;
 
 use glam::Vec2;
 use gltf::json::{self, material::AlphaMode as JsonAlphaMode, texture::WrappingMode};
-use image::{imageops, imageops::FilterType, ImageFormat, RgbaImage};
+use image::{imageops::FilterType, DynamicImage, GenericImageView, ImageDecoder, ImageFormat, RgbaImage};
+
+/// Largest image capture decodes, as RGBA8 bytes (8192 x 8192).
+const MAX_DECODED_IMAGE_BYTES: u64 = 256 << 20;
 use shadetrace_formats::{AlphaMode, Material, Texture, Wrap};
 
 use super::data::{self, Reader};
@@ -229,7 +232,13 @@ impl<'a> Materials<'a> {
         let (bytes, data_uri_type): (Cow<[u8]>, Option<String>) = match (&image.buffer_view, &image.uri) {
             (Some(view), _) => (Cow::Borrowed(self.reader.view_bytes(*view)?), None),
             (None, Some(uri)) => {
-                let (bytes, media_type) = data::read_uri(uri, self.base, &what)?;
+                let (bytes, media_type) = data::read_uri(uri, self.base, &what, data::MAX_IMAGE_FILE_BYTES)?;
+                if bytes.len() as u64 > data::MAX_IMAGE_FILE_BYTES {
+                    return Err(input(format!(
+                        "{what} is larger than the {} bytes capture reads for an image",
+                        data::MAX_IMAGE_FILE_BYTES
+                    )));
+                }
                 (Cow::Owned(bytes), media_type)
             }
             (None, None) => return Err(input(format!("{what} has neither a uri nor a bufferView"))),
@@ -253,12 +262,26 @@ impl<'a> Materials<'a> {
                 });
             }
         };
-        let decoded = image::load_from_memory_with_format(&bytes, format)
-            .map_err(|e| input(format!("cannot decode {what} of texture {texture}: {e}")))?
-            .into_rgba8();
-        if decoded.width() == 0 || decoded.height() == 0 {
+        let cannot = |e: image::ImageError| input(format!("cannot decode {what} of texture {texture}: {e}"));
+        let mut decoder = image::ImageReader::with_format(std::io::Cursor::new(&bytes[..]), format)
+            .into_decoder()
+            .map_err(cannot)?;
+        let (width, height) = decoder.dimensions();
+        if width == 0 || height == 0 {
             return Err(input(format!("{what} of texture {texture} has no pixels")));
         }
+        // Bounded by what the RGBA conversion will hold, before anything is decoded.
+        let rgba_bytes = u64::from(width) * u64::from(height) * 4;
+        if rgba_bytes > MAX_DECODED_IMAGE_BYTES {
+            return Err(input(format!(
+                "{what} of texture {texture} is {width}x{height}: {rgba_bytes} bytes as RGBA, more than the \
+                 {MAX_DECODED_IMAGE_BYTES} capture decodes"
+            )));
+        }
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(MAX_DECODED_IMAGE_BYTES);
+        decoder.set_limits(limits).map_err(cannot)?;
+        let decoded = image::DynamicImage::from_decoder(decoder).map_err(cannot)?;
         Ok(fit_within(decoded, self.max_texture))
     }
 }
@@ -272,17 +295,18 @@ fn wrap(mode: WrappingMode) -> Wrap {
 }
 
 /// Scales an image down (triangle filter, aspect kept) so that its longer edge is at most
-/// `max_edge` pixels (at least 1).
-fn fit_within(image: RgbaImage, max_edge: u32) -> RgbaImage {
+/// `max_edge` pixels (at least 1), then converts it to RGBA8: scaling first keeps a large
+/// grey or RGB image from being held four channels wide at full size.
+fn fit_within(image: DynamicImage, max_edge: u32) -> RgbaImage {
     let max_edge = max_edge.max(1);
     let (w, h) = image.dimensions();
     let longest = w.max(h);
     if longest <= max_edge {
-        return image;
+        return image.into_rgba8();
     }
     let scale = f64::from(max_edge) / f64::from(longest);
     let fit = |edge: u32| ((f64::from(edge) * scale).round() as u32).clamp(1, max_edge);
-    imageops::resize(&image, fit(w), fit(h), FilterType::Triangle)
+    image.resize_exact(fit(w), fit(h), FilterType::Triangle).into_rgba8()
 }
 
 #[cfg(test)]
@@ -301,9 +325,17 @@ mod tests {
 
     #[test]
     fn images_are_scaled_to_fit_keeping_aspect() {
-        let image = RgbaImage::new(100, 30);
+        let image = DynamicImage::ImageRgba8(RgbaImage::new(100, 30));
         assert_eq!(fit_within(image.clone(), 200).dimensions(), (100, 30));
         assert_eq!(fit_within(image.clone(), 50).dimensions(), (50, 15));
         assert_eq!(fit_within(image, 0).dimensions(), (1, 1));
+    }
+
+    #[test]
+    fn scaling_before_the_rgba_conversion_gives_the_same_pixels() {
+        let grey = image::GrayImage::from_fn(97, 41, |x, y| image::Luma([((x * 7 + y * 13) % 256) as u8]));
+        let grey = DynamicImage::ImageLuma8(grey);
+        let rgba = DynamicImage::ImageRgba8(grey.to_rgba8());
+        assert_eq!(fit_within(grey, 30), fit_within(rgba, 30));
     }
 }

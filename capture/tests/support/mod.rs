@@ -213,6 +213,39 @@ pub fn write_gltf_with_webp_texture(dir: &Path) -> PathBuf {
     write_json(dir, "webp_texture.gltf", &doc)
 }
 
+/// The 36 bytes of [`write_gltf_with_buffer_uri`]'s triangle (three `VEC3` floats).
+pub fn triangle_buffer() -> Vec<u8> {
+    [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect()
+}
+
+/// One triangle whose 36-byte buffer is read from `uri` (which the caller provides, or
+/// not: `/etc/passwd`, `../x.bin`, a FIFO...).
+pub fn write_gltf_with_buffer_uri(dir: &Path, uri: &str) -> PathBuf {
+    let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], None);
+    doc["buffers"][0]["uri"] = json!(uri);
+    write_json(dir, "buffer_uri.gltf", &doc)
+}
+
+/// A textured triangle whose base-colour image is the file at `uri`.
+pub fn write_gltf_with_image_uri(dir: &Path, uri: &str) -> PathBuf {
+    let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], None);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+    doc["textures"] = json!([{ "source": 0 }]);
+    doc["images"] = json!([{ "uri": uri }]);
+    write_json(dir, "image_uri.gltf", &doc)
+}
+
+/// One triangle under a node translated by `translation`.
+pub fn write_gltf_with_translation(dir: &Path, translation: [f32; 3]) -> PathBuf {
+    let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], None);
+    doc["nodes"][0]["translation"] = json!(translation);
+    write_json(dir, "translated.gltf", &doc)
+}
+
 /// Binary buffer under construction, with the buffer views and accessors describing it.
 #[derive(Default)]
 struct Bin {
