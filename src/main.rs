@@ -2,7 +2,6 @@
 
 mod commands;
 mod golden;
-mod output;
 mod progress;
 mod report;
 

@@ -171,6 +171,10 @@ fn bad_gltf_inputs_fail_cleanly() {
         (support::write_gltf_missing_bin(dir.path()), "missing.bin"),
         (support::write_gltf_with_bad_index(dir.path()), "index"),
         (support::write_gltf_with_webp_texture(dir.path()), "WebP"),
+        (
+            support::write_gltf_with_translation(dir.path(), [1e38, 0.0, 0.0]),
+            "translated.gltf: node 0: ",
+        ),
         (dir.path().join("does-not-exist.gltf"), "does-not-exist.gltf"),
     ];
     for (input, needle) in cases {
@@ -457,4 +461,57 @@ fn an_image_bomb_is_refused_from_its_header() {
     let (o, rss_kib) = shadetrace_measured(&["capture", gltf.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_clean_failure(&o, "16000x16000", Some(&out));
     assert!(rss_kib < HOSTILE_INPUT_RSS_KIB, "peak RSS {rss_kib} KiB");
+}
+
+#[test]
+fn a_replay_never_leaves_results_beside_another_runs_pictures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    std::fs::create_dir(&out).unwrap();
+    let trace = concat!(env!("CARGO_MANIFEST_DIR"), "/traces/floor.strace");
+    // What an earlier run left: its results, a frame this run will not write, a user's
+    // file, and a temporary of a process killed mid-write on this host.
+    std::fs::write(out.join("results.json"), "{}").unwrap();
+    std::fs::write(out.join("frame0007-left.png"), "old").unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let stale = out.join(format!(
+        "{}x.png.tmp",
+        shadetrace_formats::atomic_file::temporary_prefix(999_999_999)
+    ));
+    std::fs::write(&stale, "half a png").unwrap();
+    let replay = |extra: &[&str]| {
+        let mut args = vec![
+            "replay",
+            trace,
+            "--frames",
+            "0",
+            "--res",
+            "32x36",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        shadetrace(&args)
+    };
+    let o = replay(&["--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("removed 1 temporary file(s)"), "{}", stderr(&o));
+    assert!(!stale.exists() && !out.join("frame0007-left.png").exists());
+    assert!(
+        out.join("notes.txt").exists(),
+        "files that are not a run's outputs stay"
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(results["frames"].as_array().unwrap().len(), 1);
+
+    // A run that fails while writing its pictures leaves no results.json at all.
+    std::fs::remove_file(out.join("frame0000-stereo.png")).unwrap();
+    std::fs::create_dir(out.join("frame0000-stereo.png")).unwrap();
+    let o = replay(&["--quiet"]);
+    assert!(!o.status.success());
+    assert!(
+        !out.join("results.json").exists(),
+        "an old results.json beside new pictures"
+    );
 }

@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 use crate::gltf_import::{load_gltf, ImportOptions};
 use crate::procedural;
 use crate::prune::prune;
-use crate::source::FrameMotion;
+use crate::source::{FrameMotion, MAX_WORLD_COORDINATE_M};
 use crate::uv_atlas::has_unique_uv_atlas;
 
 /// What to capture: a built-in scene (`builtin:NAME[?k=v]`) or a glTF file.
@@ -31,6 +31,15 @@ impl Input {
         match s.strip_prefix("builtin:") {
             Some(spec) => Input::Builtin(spec.to_string()),
             None => Input::File(PathBuf::from(s)),
+        }
+    }
+}
+
+impl std::fmt::Display for Input {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Input::Builtin(spec) => write!(f, "builtin:{spec}"),
+            Input::File(path) => write!(f, "{}", path.display()),
         }
     }
 }
@@ -192,6 +201,17 @@ pub fn capture(input: &Input, opts: &CaptureOptions, progress: &mut dyn FnMut(u3
         .collect();
     let motions: Vec<FrameMotion> = times.iter().map(|&t| source.motion.sample(t)).collect();
     let bounds = scene_bounds(&source.scene, &motions);
+    // Animation can carry geometry where import's static check cannot see it.
+    let reach = bounds.min.abs().max(bounds.max.abs()).max_element();
+    if !bounds.is_empty() && (reach.is_nan() || reach > MAX_WORLD_COORDINATE_M) {
+        return Err(Error::input(
+            input,
+            format!(
+                "geometry reaches {reach:e} m from the origin over the captured frames, beyond the \
+                 ±{MAX_WORLD_COORDINATE_M:e} m capture supports (an animated node or skin)"
+            ),
+        ));
+    }
     let orbit = orbit.unwrap_or_else(|| Orbit::around(&bounds));
     let walk = Walk::inside(&bounds, main_floor(&source.scene));
 
@@ -231,6 +251,20 @@ pub fn capture(input: &Input, opts: &CaptureOptions, progress: &mut dyn FnMut(u3
             skinned: motion.skinned,
         });
         progress(index + 1, opts.frames);
+    }
+    // Checked here, not when the trace is written, so that the error names the input.
+    let counts = source.scene.counts(opts.frames);
+    for frame in &frames {
+        validate::check_frame(frame, &counts).map_err(|e| {
+            let detail = match e {
+                shadetrace_formats::Error::Invalid(msg) => msg,
+                other => other.to_string(),
+            };
+            Error::input(
+                input,
+                format!("{detail}, from the scene and camera path {}", opts.path.describe()),
+            )
+        })?;
     }
 
     let meta = Meta {

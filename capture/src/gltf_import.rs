@@ -38,7 +38,7 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 use shadetrace_formats::{Geometry, Light, LightKind, Mesh, Motion, Scene, Source};
 
-use crate::source::{SourceCamera, SourceScene};
+use crate::source::{SourceCamera, SourceScene, MAX_WORLD_COORDINATE_M};
 use crate::{Error, Result};
 use geometry::{TriangleMode, Triangles};
 
@@ -335,7 +335,18 @@ impl Importer<'_> {
             } else {
                 triangles.transform(self.world[n]);
                 if !triangles.positions.iter().all(|p| p.is_finite()) {
-                    return Err(input(format!("non-finite world position in {label}")));
+                    return Err(input(format!("node {n}: non-finite world position in {label}")));
+                }
+                if let Some(p) = triangles
+                    .positions
+                    .iter()
+                    .find(|p| p.abs().max_element() > MAX_WORLD_COORDINATE_M)
+                {
+                    return Err(input(format!(
+                        "node {n}: {label} reaches world position [{:e}, {:e}, {:e}] m, beyond the \
+                         ±{MAX_WORLD_COORDINATE_M:e} m capture supports (check the node's translation and scale)",
+                        p.x, p.y, p.z
+                    )));
                 }
                 Motion::Static
             };

@@ -5,6 +5,10 @@
 use glam::Mat4;
 use shadetrace_formats::{Pose, Scene, SkinnedVertices, Source};
 
+/// Largest world coordinate, in metres, a scene may reach: beyond it f32 camera, depth
+/// and raster maths lose all precision (and products overflow).
+pub const MAX_WORLD_COORDINATE_M: f32 = 1e9;
+
 /// A loaded scene before pruning and frame sampling.
 pub struct SourceScene {
     pub name: String,

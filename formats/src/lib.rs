@@ -1,6 +1,7 @@
 //! shadetrace-formats: the trace schema and its chunked, zstd-compressed, content-hashed
 //! container (README.md, The trace format). This crate knows no back-end and no scene format.
 
+pub mod atomic_file;
 pub mod container;
 pub mod error;
 pub mod features;

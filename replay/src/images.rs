@@ -7,7 +7,7 @@
 
 pub use crate::srgb::linear_to_srgb8;
 use crate::srgb::unit;
-use std::io::Write;
+use shadetrace_formats::atomic_file::write_bytes_atomically;
 use std::path::Path;
 
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -121,25 +121,7 @@ impl Rgba8Image {
     pub fn write_png(&self, path: impl AsRef<Path>) -> Result<(), String> {
         let path = path.as_ref();
         let bytes = self.to_png_bytes().map_err(|e| format!("{}: {e}", path.display()))?;
-        let dir = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".shadetrace-").suffix(".png.tmp");
-        // Temporary files are private (0600); the finished PNG is an ordinary file.
-        #[cfg(unix)]
-        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
-        let mut tmp = builder
-            .tempfile_in(dir)
-            .map_err(|e| format!("{}: cannot create a file in {}: {e}", path.display(), dir.display()))?;
-        tmp.write_all(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-        tmp.as_file()
-            .sync_all()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        tmp.persist(path)
-            .map_err(|e| format!("{}: {}", path.display(), e.error))?;
-        Ok(())
+        write_bytes_atomically(path, &bytes)
     }
 }
 

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use shadetrace_capture::{capture, CameraPathSpec, CaptureOptions, Input};
 use shadetrace_formats::DEFAULT_ZSTD_LEVEL;
 
-use crate::output::write_atomically;
 use crate::progress;
+use shadetrace_formats::atomic_file::write_atomically;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -8,7 +8,7 @@ use serde_json::Value;
 use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions, PRESETS};
 
 use crate::golden;
-use crate::output::write_atomically;
+use shadetrace_formats::atomic_file::write_atomically;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -7,7 +7,7 @@ use shadetrace_replay::{
     load_trace, replay_all, LoadedTrace, Preset, ReplayOptions, RunOutput, PRESETS, REFERENCE_PRESET,
 };
 
-use super::replay::{write_frame_images, write_results};
+use super::replay::{clear_previous_run, remove_if_present, write_frame_images, write_results};
 use super::summary;
 use crate::progress;
 use crate::report::{write_html, ReportSection, TraceSummary};
@@ -80,8 +80,12 @@ pub fn run_presets(
         .iter()
         .map(|(p, _)| (dir.join(p.label()), p.scheme_info().reports_refinement))
         .collect();
+    for name in ["summary.csv", "frames.csv", "index.html"] {
+        remove_if_present(&dir.join(name))?;
+    }
     for (preset_dir, _) in &dirs {
         std::fs::create_dir_all(preset_dir).map_err(|e| format!("{}: {e}", preset_dir.display()))?;
+        clear_previous_run(preset_dir)?;
     }
     let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
     let bar = progress::bar(frames as u64, &format!("frames x {} presets", runnable.len()), quiet);

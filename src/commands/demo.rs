@@ -9,9 +9,10 @@ use shadetrace_formats::DEFAULT_ZSTD_LEVEL;
 use shadetrace_replay::{load_trace, ReplayOptions};
 
 use super::compare::{preset_list, run_presets};
+use super::replay::remove_if_present;
 use super::summary;
-use crate::output::write_atomically;
 use crate::report::{write_html, ReportSection, TraceSummary};
+use shadetrace_formats::atomic_file::write_atomically;
 use shadetrace_replay::options::parse_resolution;
 
 #[derive(clap::Args)]
@@ -31,6 +32,7 @@ pub fn run(args: Args) -> Result<(), String> {
     let started = std::time::Instant::now();
     let traces_dir = args.out.join("traces");
     std::fs::create_dir_all(&traces_dir).map_err(|e| format!("{}: {e}", traces_dir.display()))?;
+    remove_if_present(&args.out.join("index.html"))?;
     let presets = preset_list(&[])?;
     let opts = ReplayOptions {
         resolution: Some(args.res),

@@ -8,8 +8,8 @@ use shadetrace_replay::images::{heat_map, robust_max, side_by_side};
 use shadetrace_replay::scheme::Effects;
 use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, ReplayOptions, RunOutput, REFERENCE_PRESET};
 
-use crate::output::write_atomically;
 use crate::progress;
+use shadetrace_formats::atomic_file::write_atomically;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -42,6 +42,7 @@ pub fn run(args: Args) -> Result<(), String> {
     preset.supports(&trace.prepared.scene)?;
     let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    clear_previous_run(&args.out)?;
     let refinement = preset.scheme_info().reports_refinement;
     let bar = progress::bar(frames as u64, "frames", args.quiet);
     let mut runs = replay_all(
@@ -64,8 +65,37 @@ pub fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Writes `results.json` into `dir` (after the images, so a results file never sits beside
-/// images of another run).
+/// Removes what an earlier run left in `dir`: `results.json` first, so that from here on a
+/// killed or failed run leaves no results file that could be read as describing the
+/// pictures beside it, then its frame pictures (`frameNNNN-*.png`), so that a finished run
+/// never sits beside another run's frames. The rule: a directory holds one run's outputs,
+/// and `results.json`, written last, says the run finished.
+pub fn clear_previous_run(dir: &Path) -> Result<(), String> {
+    remove_if_present(&dir.join("results.json"))?;
+    let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for entry in entries.filter_map(|e| e.ok()) {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let frame_picture = name.strip_prefix("frame").is_some_and(|rest| {
+            rest.len() > 5 && rest.as_bytes()[..4].iter().all(u8::is_ascii_digit) && rest.ends_with(".png")
+        });
+        if frame_picture && entry.file_type().is_ok_and(|t| t.is_file()) {
+            remove_if_present(&entry.path())?;
+        }
+    }
+    Ok(())
+}
+
+/// Removes an output of an earlier run, if there is one.
+pub fn remove_if_present(path: &Path) -> Result<(), String> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(format!("{}: {e}", path.display())),
+        _ => Ok(()),
+    }
+}
+
+/// Writes `results.json` into `dir`, after everything else of the run (see
+/// [`clear_previous_run`]).
 pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
     if let Some(field) = result.non_finite_fields().first() {
         return Err(format!("{}: {field} is not a finite number", result.preset));

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use shadetrace_formats::results::{stage_names, traffic_names, ListStats, RunResult};
 
-use crate::output::write_atomically;
+use shadetrace_formats::atomic_file::write_atomically;
 
 /// The columns of a set of runs: fixed ones, one per shading stage and one per traffic class
 /// that any run reports (so a new stage or class appears without edits here).

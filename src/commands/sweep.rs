@@ -7,9 +7,9 @@ use std::path::PathBuf;
 
 use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions};
 
-use crate::output::write_atomically;
 use crate::progress;
 use crate::report::svg::cost_quality_scatter;
+use shadetrace_formats::atomic_file::write_atomically;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -12,7 +12,7 @@ use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image};
 use shadetrace_replay::{LoadedTrace, RunOutput};
 
-use crate::output::write_atomically;
+use shadetrace_formats::atomic_file::write_atomically;
 
 /// Above this many bytes of embedded (base64) images the report switches to downscaled
 /// images, so browsers open it quickly.
