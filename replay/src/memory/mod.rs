@@ -35,49 +35,100 @@ pub enum Stream {
 }
 
 const WRITE_BIT: u64 = 1 << 61;
-const LINE_MASK: u64 = (1 << 61) - 1;
+const LINE_MASK: u64 = WRITE_BIT - 1;
+const STREAMS: usize = 4;
 
-/// The cache lines one work unit touched, in order.
-#[derive(Clone, Debug, Default)]
+/// The cache lines a job's commands touched: one growing list per stream (so each cache
+/// replays only its own accesses), cut into segments, one per command that made accesses.
+/// One log per job, reused from command to command: no allocation per unit.
+#[derive(Clone, Debug)]
 pub struct AccessLog {
-    entries: Vec<u64>,
-    last: [u64; 4],
+    entries: [Vec<u64>; STREAMS],
+    last: [u64; STREAMS],
+    segments: Vec<Segment>,
+}
+
+/// Where one command's accesses start in each stream; they end where the next segment starts.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    command: usize,
+    start: [usize; STREAMS],
+}
+
+impl Default for AccessLog {
+    fn default() -> Self {
+        AccessLog::new()
+    }
 }
 
 impl AccessLog {
     pub fn new() -> Self {
         AccessLog {
-            entries: Vec::new(),
-            last: [u64::MAX; 4],
+            entries: Default::default(),
+            last: [u64::MAX; STREAMS],
+            segments: Vec::new(),
         }
     }
 
-    /// Records an access; a repeat of the stream's previous access is dropped (it is a hit
-    /// that cannot change any LRU state), unless it upgrades a read to a write.
+    /// Starts the accesses of command `command` (an index its job knows it by). A previous
+    /// segment without accesses is dropped, as if it had never begun.
+    pub fn begin(&mut self, command: usize) {
+        let start = self.entries.each_ref().map(Vec::len);
+        match self.segments.last_mut() {
+            Some(last) if last.start == start => last.command = command,
+            _ => self.segments.push(Segment { command, start }),
+        }
+        self.last = [u64::MAX; STREAMS];
+    }
+
+    /// Records an access; a repeat of the stream's previous access within the command is
+    /// dropped (it is a hit that cannot change any LRU state), unless it upgrades a read to
+    /// a write.
     #[inline]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
-        let entry = (stream as u64) << 62 | if write { WRITE_BIT } else { 0 } | (line & LINE_MASK);
-        let last = &mut self.last[stream as usize];
+        if self.segments.is_empty() {
+            self.begin(0);
+        }
+        let entry = if write { WRITE_BIT } else { 0 } | (line & LINE_MASK);
+        let s = stream as usize;
+        let last = &mut self.last[s];
         if *last == entry || (!write && *last == entry | WRITE_BIT) {
             return;
         }
         *last = entry;
-        self.entries.push(entry);
+        self.entries[s].push(entry);
+    }
+
+    /// The segments that made accesses: (segment index, command index), in order.
+    pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.segments
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| (0..STREAMS).any(|s| !self.stream(i, s).is_empty()))
+            .map(|(i, seg)| (i, seg.command))
+    }
+
+    /// Stream `s`'s accesses of segment `i`.
+    fn stream(&self, i: usize, s: usize) -> &[u64] {
+        let start = self.segments[i].start[s];
+        let end = self
+            .segments
+            .get(i + 1)
+            .map_or(self.entries[s].len(), |next| next.start[s]);
+        &self.entries[s][start..end]
     }
 
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.entries.iter().map(Vec::len).sum()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
-    }
-
-    pub fn clear(&mut self) {
-        self.entries.clear();
-        self.last = [u64::MAX; 4];
+        self.len() == 0
     }
 }
+
+/// One command's accesses: a log and one of its segments.
+pub type LogSegment<'a> = (&'a AccessLog, usize);
 
 /// Cache sizes in bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -170,24 +221,22 @@ impl LineSet {
     }
 }
 
-/// Replays the access logs of one frame, in the given order, through fresh caches.
-pub fn simulate(sizes: CacheSizes, logs: &[&AccessLog]) -> (Traffic, CacheReport) {
+/// Replays the accesses of one frame, segment by segment in the given order, through
+/// fresh caches.
+pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheReport) {
     // The four caches are independent: each replays its own stream of the same order.
     let run = |stream: Stream, bytes: u64| {
         let mut cache = Cache::new(bytes);
         let mut written = LineSet::default();
         let mut dram_lines = 0u64;
         let mut writebacks = 0u64;
-        for log in logs {
-            for &entry in &log.entries {
-                if (entry >> 62) as u8 != stream as u8 {
-                    continue;
-                }
+        let framebuffer = matches!(stream, Stream::Depth | Stream::Color);
+        for &(log, i) in segments {
+            for &entry in log.stream(i, stream as usize) {
                 let line = entry & LINE_MASK;
                 let write = entry & WRITE_BIT != 0;
                 let (miss, evicted_dirty) = cache.access(line, write);
                 if miss {
-                    let framebuffer = matches!(stream, Stream::Depth | Stream::Color);
                     if framebuffer && !written.contains(line) {
                         cache.stats.cleared_fills += 1;
                     } else {
@@ -236,6 +285,7 @@ mod tests {
 
     fn log(entries: &[(Stream, u64, bool)]) -> AccessLog {
         let mut l = AccessLog::new();
+        l.begin(0);
         for &(s, line, w) in entries {
             l.touch(s, line, w);
         }
@@ -266,7 +316,7 @@ mod tests {
             (Stream::Depth, 8, false),
             (Stream::Depth, 7, false),
         ]);
-        let (traffic, report) = simulate(sizes, &[&l]);
+        let (traffic, report) = simulate(sizes, &[(&l, 0)]);
         assert_eq!(report.depth.misses, 3);
         assert_eq!(report.depth.cleared_fills, 2);
         assert_eq!(report.depth.writebacks, 1);
@@ -276,7 +326,7 @@ mod tests {
             (Stream::Texture, 1, false),
             (Stream::Texture, 2, false),
         ]);
-        let (traffic, _) = simulate(sizes, &[&t]);
+        let (traffic, _) = simulate(sizes, &[(&t, 0)]);
         assert_eq!(traffic.bytes(TEXTURE), 2 * LINE_BYTES);
     }
 }

@@ -41,10 +41,11 @@ pub fn view<'a>(
                     .copy_from_slice(&tile.pixels[row * tile_width..(row + 1) * tile_width]);
             }
         }
-        for (&pixel, &n) in out.heat.iter().filter(|(&p, _)| in_view(p)) {
-            cost_heat[index(pixel)] += n;
+        for &(pixel, n) in out.heat.iter().filter(|(p, _)| in_view(*p)) {
+            let sum = &mut cost_heat[index(pixel)];
+            *sum = sum.wrapping_add(n);
         }
-        for (&pixel, &bits) in out.refinement.iter().filter(|(&p, _)| in_view(p)) {
+        for &(pixel, bits) in out.refinement.iter().filter(|(p, _)| in_view(*p)) {
             refinement[index(pixel)] |= bits;
         }
     }

@@ -41,13 +41,16 @@ pub struct JobContext<'a> {
 
 /// Everything a job produced; per-view arrays are indexed by view.
 pub struct JobOutput {
-    /// Access logs of the commands that made accesses, with the command's index.
-    pub logs: Vec<(usize, AccessLog)>,
+    /// The job's accesses, one segment per command (by its index in the job).
+    pub log: AccessLog,
     pub raster: [RasterStats; 2],
     pub cost: [ShadingCost; 2],
     pub tiles: Vec<TileImage>,
-    pub heat: BTreeMap<u32, u32>,
-    pub refinement: BTreeMap<u32, u8>,
+    /// Instructions per pixel id and refinement bits per pixel id, in the order the job
+    /// produced them (repeats of the last pixel folded in); the view's assembly adds them
+    /// up, which is order-independent (wrapping sums, bitwise or).
+    pub heat: Vec<(u32, u32)>,
+    pub refinement: Vec<(u32, u8)>,
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
     pub buffers: Vec<SampleBuffer>,
@@ -72,12 +75,12 @@ impl JobContext<'_> {
 impl JobOutput {
     pub fn new(simd_width: u32) -> JobOutput {
         JobOutput {
-            logs: Vec::new(),
+            log: AccessLog::new(),
             raster: [RasterStats::default(); 2],
             cost: [ShadingCost::new(simd_width), ShadingCost::new(simd_width)],
             tiles: Vec::new(),
-            heat: BTreeMap::new(),
-            refinement: BTreeMap::new(),
+            heat: Vec::new(),
+            refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
         }
@@ -91,8 +94,14 @@ impl JobOutput {
         f(&mut Accounting {
             cost: &mut self.cost[v],
             log,
-            heat: &mut |pixel, n| *heat.entry(pixel).or_insert(0) += n,
-            refinement: &mut |pixel, bits| *refinement.entry(pixel).or_insert(0) |= bits,
+            heat: &mut |pixel, n| match heat.last_mut() {
+                Some((last, sum)) if *last == pixel => *sum = sum.wrapping_add(n),
+                _ => heat.push((pixel, n)),
+            },
+            refinement: &mut |pixel, bits| match refinement.last_mut() {
+                Some((last, all)) if *last == pixel => *all |= bits,
+                _ => refinement.push((pixel, bits)),
+            },
             cache: &mut self.cache[v],
         })
     }
@@ -111,25 +120,26 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
     let mut out = JobOutput::new(ctx.simd_width);
     let mut scratch = Scratch::default();
+    let mut log = AccessLog::new();
     for (index, command) in job.commands.iter().enumerate() {
-        let log = match *command {
-            Command::BeginSequence => {
-                scheme_job.begin_sequence();
-                continue;
-            }
+        log.begin(index);
+        match *command {
+            Command::BeginSequence => scheme_job.begin_sequence(),
             Command::Draw(unit) | Command::DepthPrepass(unit) | Command::Visibility(unit) => {
                 let buffer = buffers
                     .entry((unit.view, unit.tile))
                     .or_insert_with(|| SampleBuffer::new(unit.view, ctx.grid.rect(unit.tile), ctx.offsets.len()));
-                geometry_command(ctx, command, unit, buffer, scheme_job.as_mut(), &mut scratch, &mut out)
+                let scheme_job = scheme_job.as_mut();
+                geometry_command(ctx, command, unit, buffer, scheme_job, &mut scratch, &mut log, &mut out);
             }
-            Command::ShadeTile { view, tile } => match buffers.get_mut(&(view, tile)) {
-                Some(buffer) => shade_tile(ctx, buffer, scheme_job.as_mut(), &mut out),
-                None => continue,
-            },
-        };
-        out.logs.push((index, log));
+            Command::ShadeTile { view, tile } => {
+                if let Some(buffer) = buffers.get_mut(&(view, tile)) {
+                    shade_tile(ctx, buffer, scheme_job.as_mut(), &mut log, &mut out);
+                }
+            }
+        }
     }
+    out.log = log;
     out.tiles = buffers.values().map(resolve).collect();
     if ctx.keep_buffers {
         out.buffers = buffers.into_values().collect();
@@ -146,8 +156,9 @@ fn geometry_command(
     buffer: &mut SampleBuffer,
     scheme_job: &mut dyn SchemeJob,
     scratch: &mut Scratch,
+    log: &mut AccessLog,
     out: &mut JobOutput,
-) -> AccessLog {
+) {
     let prepass = matches!(command, Command::DepthPrepass(_));
     let shading = matches!(command, Command::Draw(_));
     let samples = buffer.samples;
@@ -155,7 +166,6 @@ fn geometry_command(
     let setup = &ctx.setups[v][unit.tri as usize];
     let triangle = &ctx.geometry.triangles[setup.prim as usize];
     let material = &ctx.env.materials[triangle.material as usize];
-    let mut log = AccessLog::new();
     let raster = &mut out.raster[v];
     if !prepass {
         raster.units += 1;
@@ -163,13 +173,13 @@ fn geometry_command(
     let opaque = material.alpha == AlphaMode::Opaque;
     if !shading && !opaque {
         // Depth-only passes skip surfaces whose visibility needs their shading (alpha).
-        return log;
+        return;
     }
     if setup.z_min > buffer.max_depth {
         if !prepass {
             raster.hiz_culled_units += 1;
         }
-        return log;
+        return;
     }
     for vertex in triangle.vertices {
         log.touch(Stream::TriangleData, vertex as u64 * VERTEX_BYTES / LINE_BYTES, false);
@@ -235,7 +245,7 @@ fn geometry_command(
             setup,
             triangle,
         };
-        out.account(v, &mut log, |acc| {
+        out.account(v, log, |acc| {
             scheme_job.shade_unit(&unit_ctx, &scratch.shade_quads, &mut scratch.colors, acc)
         });
         let raster = &mut out.raster[v];
@@ -249,13 +259,12 @@ fn geometry_command(
             quads: &scratch.quads,
             colors: &scratch.colors,
         };
-        depth_written |= merge(&input, buffer, &layout, raster, &mut log);
+        depth_written |= merge(&input, buffer, &layout, raster, log);
     }
     // The tile's farthest depth only moves where depth was written.
     if depth_written {
         buffer.update_max_depth();
     }
-    log
 }
 
 /// A screen pass over one tile: the scheme reads the resolved visibility and writes colour.
@@ -263,10 +272,10 @@ fn shade_tile(
     ctx: &JobContext,
     buffer: &mut SampleBuffer,
     scheme_job: &mut dyn SchemeJob,
+    log: &mut AccessLog,
     out: &mut JobOutput,
-) -> AccessLog {
+) {
     let v = buffer.view as usize;
-    let mut log = AccessLog::new();
     let raster = &mut out.raster[v];
     let samples = buffer.samples;
     for first in (0..buffer.depth.len()).step_by(samples) {
@@ -283,8 +292,7 @@ fn shade_tile(
         offsets: ctx.offsets,
         layout: ctx.layout,
     };
-    out.account(v, &mut log, |acc| scheme_job.shade_tile(&tile_ctx, buffer, acc));
-    log
+    out.account(v, log, |acc| scheme_job.shade_tile(&tile_ctx, buffer, acc));
 }
 
 fn lane_mask(passed: u32, samples: usize) -> u8 {

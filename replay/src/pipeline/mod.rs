@@ -23,7 +23,7 @@ use shadetrace_formats::{Eye, Frame, LightKind, Meta, Scene};
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
 use crate::geometry::FrameGeometry;
-use crate::memory::{simulate, AccessLog, CacheSizes, FramebufferLayout, TRIANGLE_DATA};
+use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, TRIANGLE_DATA};
 use crate::options::ReplayOptions;
 use crate::raster::sample_offsets;
 use crate::schedule::{ScheduleInput, Scheduler, INDICES};
@@ -284,20 +284,26 @@ fn memory_pass(
 ) -> (Traffic, CacheReport) {
     let mut order: Vec<(u8, [u64; 4], usize, usize)> = Vec::new();
     for (j, out) in outputs.iter().enumerate() {
-        for (l, (index, _)) in out.logs.iter().enumerate() {
-            let key = match jobs[j].commands[*index] {
-                Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, *index)),
-                Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, *index)),
+        for (segment, index) in out.log.segments() {
+            let key = match jobs[j].commands[index] {
+                Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, index)),
+                Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, index)),
                 Command::ShadeTile { view, tile } => (1, [view as u64, tile as u64, 0, 0]),
                 Command::BeginSequence => continue,
             };
-            order.push((key.0, key.1, j, l));
+            order.push((key.0, key.1, j, segment));
         }
     }
     order.sort_unstable();
-    let mut ordered: Vec<&AccessLog> = order.iter().map(|&(_, _, j, l)| &outputs[j].logs[l].1).collect();
+    let mut ordered: Vec<LogSegment> = order
+        .iter()
+        .map(|&(_, _, j, segment)| (&outputs[j].log, segment))
+        .collect();
     if let Some(pass) = view_pass {
-        ordered.extend(pass.iter().flat_map(|out| out.logs.iter().map(|(_, log)| log)));
+        ordered.extend(
+            pass.iter()
+                .flat_map(|out| out.log.segments().map(|(segment, _)| (&out.log, segment))),
+        );
     }
     simulate(sizes, &ordered)
 }

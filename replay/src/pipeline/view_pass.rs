@@ -78,25 +78,27 @@ pub fn run(
     let mut work = Vec::new();
     let mut first = JobOutput::new(simd_width);
     let mut log = crate::memory::AccessLog::new();
+    log.begin(0);
     let v = pass.to as usize;
     first.account(v, &mut log, |acc| {
         scheme
             .begin_job(lights, simd_width)
             .derive_view(&ctx, &from, &mut to, &mut work, acc)
     });
-    first.logs.push((0, log));
+    first.log = log;
     let chunks: Vec<(JobOutput, Vec<Vec4>)> = work
         .par_chunks(WORK_CHUNK)
         .map(|pixels| {
             let mut out = JobOutput::new(simd_width);
             let mut log = crate::memory::AccessLog::new();
+            log.begin(0);
             let mut colors = Vec::with_capacity(pixels.len());
             out.account(v, &mut log, |acc| {
                 scheme
                     .begin_job(lights, simd_width)
                     .shade_pixels(&ctx, &to, pixels, &mut colors, acc)
             });
-            out.logs.push((0, log));
+            out.log = log;
             (out, colors)
         })
         .collect();
