@@ -61,6 +61,9 @@ impl RunResult {
         check("total.min_ssim_covered".into(), self.total.min_ssim_covered);
         check("timing.wall_s".into(), Some(self.timing.wall_s));
         check("timing.pixels_per_s".into(), Some(self.timing.pixels_per_s));
+        for (stage, &ms) in &self.timing.stages_ms {
+            check(format!("timing.stages_ms.{stage}"), Some(ms));
+        }
         bad
     }
 }
@@ -367,6 +370,15 @@ pub struct CacheStats {
     pub cleared_fills: u64,
 }
 
+impl CacheStats {
+    pub fn add(&mut self, o: &CacheStats) {
+        self.accesses += o.accesses;
+        self.misses += o.misses;
+        self.writebacks += o.writebacks;
+        self.cleared_fills += o.cleared_fills;
+    }
+}
+
 /// Statistics of every cache of the memory model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CacheReport {
@@ -415,12 +427,17 @@ pub struct Quality {
 }
 
 /// Wall-clock cost of the replay itself (not deterministic; never compared by goldens).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
     pub wall_s: f64,
     pub threads: u32,
     /// Pixels of all views and frames replayed per second.
     pub pixels_per_s: f64,
+    /// Wall milliseconds per stage over all frames, so users see where their time goes:
+    /// geometry, shadow, vertex, bins, raster_shade, view_pass, memory, assemble, quality,
+    /// images (writing this run's pictures).
+    #[serde(default)]
+    pub stages_ms: BTreeMap<String, f64>,
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Replaying a trace with one preset: loading, the frame loop, relative cost and quality
 //! against the reference, and the results record.
 
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
@@ -132,7 +133,9 @@ pub fn replay_all(
         };
         for (i, replay) in replays.iter_mut().enumerate() {
             let images = replay.frame(trace, index, reference_frame.as_ref())?;
+            let writing = Instant::now();
             sink(i, &images)?;
+            *replay.stages.entry("images").or_default() += writing.elapsed();
             replay.first_images.get_or_insert(images);
         }
         progress(done as u32 + 1);
@@ -154,6 +157,8 @@ struct Replay {
     pixels: u64,
     size: (u32, u32),
     busy: Duration,
+    /// Wall time per stage over the frames so far.
+    stages: BTreeMap<&'static str, Duration>,
     first_images: Option<FrameImages>,
 }
 
@@ -189,6 +194,7 @@ impl Replay {
             pixels: 0,
             size,
             busy: Duration::ZERO,
+            stages: BTreeMap::new(),
             first_images: None,
         })
     }
@@ -214,6 +220,10 @@ impl Replay {
             self.scheduler.as_ref(),
             self.scheme.as_ref(),
         );
+        for &(stage, time) in &out.stage_times {
+            *self.stages.entry(stage).or_default() += time;
+        }
+        let quality_started = Instant::now();
         let info = self.preset.scheme_info();
         let mut views = Vec::new();
         let mut images = Vec::new();
@@ -282,6 +292,7 @@ impl Replay {
             lists: out.lists,
             shadow_pass: out.shadow_pass,
         });
+        *self.stages.entry("quality").or_default() += quality_started.elapsed();
         self.busy += started.elapsed();
         let [left, right]: [ViewImages; 2] = images.try_into().map_err(|_| "a frame has two views".to_string())?;
         Ok(FrameImages {
@@ -314,6 +325,11 @@ impl Replay {
                     wall_s,
                     threads: rayon::current_num_threads() as u32,
                     pixels_per_s: self.pixels as f64 / wall_s.max(1e-9),
+                    stages_ms: self
+                        .stages
+                        .iter()
+                        .map(|(stage, time)| (stage.to_string(), time.as_secs_f64() * 1e3))
+                        .collect(),
                 },
             },
             first_images: self.first_images,

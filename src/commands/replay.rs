@@ -189,4 +189,27 @@ fn print_summary(output: &RunOutput) {
         .collect();
     println!("DRAM traffic: {} (total {} B)", classes.join(", "), tr.total());
     println!("{:.2} s, {:.2} Mpixels/s", r.timing.wall_s, r.timing.pixels_per_s / 1e6);
+    // In pipeline order, then what runs after it.
+    const ORDER: [&str; 10] = [
+        "geometry",
+        "shadow",
+        "vertex",
+        "bins",
+        "raster_shade",
+        "view_pass",
+        "memory",
+        "assemble",
+        "quality",
+        "images",
+    ];
+    let stages: Vec<String> = ORDER
+        .iter()
+        .filter_map(|s| {
+            r.timing
+                .stages_ms
+                .get(*s)
+                .map(|ms| format!("{} {ms:.0}", s.replace('_', "+")))
+        })
+        .collect();
+    println!("wall ms per stage: {}", stages.join(", "));
 }

@@ -8,6 +8,7 @@
 mod framebuffer;
 
 pub use framebuffer::FramebufferLayout;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};
 
@@ -139,53 +140,86 @@ pub struct CacheSizes {
     pub texture: u64,
 }
 
-/// One set-associative LRU cache.
+/// One set-associative LRU cache, or the part of one that holds the sets `part` of
+/// `parts` (a set's state depends only on the lines that map to it, so parts of a cache
+/// replay the same accesses independently and their counts add up to the whole's).
 struct Cache {
-    sets: usize,
+    sets: u64,
     ways: usize,
-    /// `sets * ways` (line + 1, 0 = empty), most recently used first within a set.
-    tags: Vec<u64>,
-    dirty: Vec<bool>,
+    /// `sets - 1` when `sets` is a power of two, for a mask instead of a division.
+    set_mask: Option<u64>,
+    part: u64,
+    parts: u64,
+    /// `sets * ways` slots: `line + 1` (0 = empty) with [`DIRTY`] set when written, most
+    /// recently used first within a set.
+    slots: Vec<u64>,
     stats: CacheStats,
 }
 
+/// A slot's dirty bit (tags stay below 2^61).
+const DIRTY: u64 = 1 << 63;
+
 impl Cache {
+    #[cfg(test)]
     fn new(bytes: u64) -> Cache {
+        Cache::part(bytes, 0, 1)
+    }
+
+    fn part(bytes: u64, part: u64, parts: u64) -> Cache {
+        debug_assert!(parts.is_power_of_two() && part < parts);
         let lines = (bytes / LINE_BYTES).max(1) as usize;
         let ways = WAYS.min(lines);
-        let sets = (lines / ways).max(1);
+        let sets = (lines / ways).max(1) as u64;
         Cache {
             sets,
             ways,
-            tags: vec![0; sets * ways],
-            dirty: vec![false; sets * ways],
+            set_mask: sets.is_power_of_two().then_some(sets - 1),
+            part,
+            parts,
+            slots: vec![0; sets as usize * ways],
             stats: CacheStats::default(),
         }
+    }
+
+    #[inline]
+    fn set_of(&self, line: u64) -> u64 {
+        match self.set_mask {
+            Some(mask) => line & mask,
+            None => line % self.sets,
+        }
+    }
+
+    /// Whether `line` maps to a set this part holds (`parts` is a power of two).
+    #[inline]
+    fn holds(&self, line: u64) -> bool {
+        self.parts == 1 || self.set_of(line) & (self.parts - 1) == self.part
     }
 
     /// Accesses `line`; returns (miss, evicted dirty line).
     #[inline]
     fn access(&mut self, line: u64, write: bool) -> (bool, bool) {
         self.stats.accesses += 1;
-        let set = (line % self.sets as u64) as usize;
-        let base = set * self.ways;
-        let tags = &mut self.tags[base..base + self.ways];
-        let dirty = &mut self.dirty[base..base + self.ways];
+        let base = self.set_of(line) as usize * self.ways;
+        let slots = &mut self.slots[base..base + self.ways];
         let tag = line + 1;
-        if let Some(pos) = tags.iter().position(|&t| t == tag) {
-            let d = dirty[pos] | write;
-            tags.copy_within(0..pos, 1);
-            dirty.copy_within(0..pos, 1);
-            tags[0] = tag;
-            dirty[0] = d;
+        let dirty = if write { DIRTY } else { 0 };
+        // Move to front: the slots before the hit (or all but the last, on a miss) shift
+        // back by one.
+        let (hit, last) = match slots.iter().position(|&s| s & !DIRTY == tag) {
+            Some(pos) => (true, pos),
+            None => (false, slots.len() - 1),
+        };
+        let moved = slots[last];
+        for i in (1..=last).rev() {
+            slots[i] = slots[i - 1];
+        }
+        if hit {
+            slots[0] = moved | dirty;
             return (false, false);
         }
+        slots[0] = tag | dirty;
         self.stats.misses += 1;
-        let evicted_dirty = tags[self.ways - 1] != 0 && dirty[self.ways - 1];
-        tags.copy_within(0..self.ways - 1, 1);
-        dirty.copy_within(0..self.ways - 1, 1);
-        tags[0] = tag;
-        dirty[0] = write;
+        let evicted_dirty = moved != 0 && moved & DIRTY != 0;
         if evicted_dirty {
             self.stats.writebacks += 1;
         }
@@ -194,8 +228,8 @@ impl Cache {
 
     /// Writes back every dirty line (end of frame); returns how many.
     fn flush(&mut self) -> u64 {
-        let n = self.dirty.iter().filter(|&&d| d).count() as u64;
-        self.dirty.iter_mut().for_each(|d| *d = false);
+        let n = self.slots.iter().filter(|&&s| s & DIRTY != 0).count() as u64;
+        self.slots.iter_mut().for_each(|s| *s &= !DIRTY);
         self.stats.writebacks += n;
         n
     }
@@ -224,9 +258,12 @@ impl LineSet {
 /// Replays the accesses of one frame, segment by segment in the given order, through
 /// fresh caches.
 pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheReport) {
-    // The four caches are independent: each replays its own stream of the same order.
-    let run = |stream: Stream, bytes: u64| {
-        let mut cache = Cache::new(bytes);
+    // The four caches are independent: each replays its own stream of the same order, in
+    // parts of its sets, one task per part (the counts do not depend on how many).
+    // A power of two, so that a set's part is a mask of its index.
+    let parts = 1u64 << rayon::current_num_threads().max(1).ilog2();
+    let run_part = |stream: Stream, bytes: u64, part: u64| {
+        let mut cache = Cache::part(bytes, part, parts);
         let mut written = LineSet::default();
         let mut dram_lines = 0u64;
         let mut writebacks = 0u64;
@@ -234,6 +271,9 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
         for &(log, i) in segments {
             for &entry in log.stream(i, stream as usize) {
                 let line = entry & LINE_MASK;
+                if !cache.holds(line) {
+                    continue;
+                }
                 let write = entry & WRITE_BIT != 0;
                 let (miss, evicted_dirty) = cache.access(line, write);
                 if miss {
@@ -253,6 +293,17 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
         }
         writebacks += cache.flush();
         (dram_lines, writebacks, cache.stats)
+    };
+    let run = |stream: Stream, bytes: u64| {
+        (0..parts)
+            .into_par_iter()
+            .map(|part| run_part(stream, bytes, part))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold((0, 0, CacheStats::default()), |(d, w, mut stats), (pd, pw, ps)| {
+                stats.add(&ps);
+                (d + pd, w + pw, stats)
+            })
     };
     let ((depth, color), (tri, tex)) = rayon::join(
         || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
@@ -328,5 +379,36 @@ mod tests {
         ]);
         let (traffic, _) = simulate(sizes, &[(&t, 0)]);
         assert_eq!(traffic.bytes(TEXTURE), 2 * LINE_BYTES);
+    }
+
+    #[test]
+    fn counts_do_not_depend_on_how_many_parts_replay_a_cache() {
+        // A pseudo-random mix of reads and writes over a few hundred lines, in two segments.
+        let mut l = AccessLog::new();
+        let mut x = 12345u64;
+        for command in 0..2 {
+            l.begin(command);
+            for _ in 0..5000 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let stream =
+                    [Stream::Depth, Stream::Color, Stream::TriangleData, Stream::Texture][(x >> 60) as usize % 4];
+                l.touch(stream, (x >> 33) % 300, x >> 20 & 1 == 1);
+            }
+        }
+        let sizes = CacheSizes {
+            depth: 8 * LINE_BYTES,
+            color: 12 * LINE_BYTES, // 3 sets: not a power of two
+            triangle_data: LINE_BYTES,
+            texture: 64 * LINE_BYTES,
+        };
+        let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();
+        let with = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| simulate(sizes, &segments))
+        };
+        let one = with(1);
+        for threads in [2, 3, 4, 8] {
+            assert_eq!(with(threads), one, "{threads} threads");
+        }
     }
 }

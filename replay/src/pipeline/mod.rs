@@ -12,6 +12,7 @@ mod blend;
 mod job;
 mod resolve;
 mod sample_buffer;
+mod stage_clock;
 mod view_pass;
 
 use rayon::prelude::*;
@@ -35,6 +36,7 @@ use crate::vertex_stage::{setup_view, SetupTriangle};
 use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
 pub use resolve::clear_pixel;
 pub use sample_buffer::{depth_passes, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+use stage_clock::StageClock;
 pub use view_pass::WORK_CHUNK;
 
 /// Scene data prepared once per trace: mip chains and lights.
@@ -86,6 +88,8 @@ pub struct FrameOutput {
     pub caches: CacheReport,
     pub lists: ListStats,
     pub shadow_pass: Option<ShadowPassStats>,
+    /// Wall time of each stage of this frame.
+    pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
 
 pub struct ViewOutput {
@@ -122,12 +126,15 @@ pub fn run_frame(
     let mut rig = frame.rig;
     rig.eye_width = width;
     rig.eye_height = height;
+    let mut clock = StageClock::start();
     let geometry = FrameGeometry::build(&prepared.scene, frame);
+    clock.lap("geometry");
     let shadow = shadow_pass(prepared, meta, &geometry, opts);
     let receivers: Option<ReceiverHierarchy> = match (&shadow, scheme.edge_receiver_delta()) {
         (Some(map), Some(delta)) => Some(map.receivers(delta)),
         _ => None,
     };
+    clock.lap("shadow");
     let env = ShaderEnv {
         materials: &prepared.scene.materials,
         textures: &prepared.textures,
@@ -154,6 +161,7 @@ pub fn run_frame(
         ViewSetup { triangles, stats }
     });
     let setups = [views[0].triangles.as_slice(), views[1].triangles.as_slice()];
+    clock.lap("vertex");
     let grid = TileGrid::new(width, height, opts.tile);
     let bins = Bins::build(grid, setups);
     let schedule = scheduler.schedule(&ScheduleInput { bins: &bins, setups });
@@ -162,6 +170,7 @@ pub fn run_frame(
         .into_iter()
         .map(|job| commands_for(job, opts.z_prepass, scheme.passes()))
         .collect();
+    clock.lap("bins");
     let layout = FramebufferLayout::new(width, height, opts.msaa);
     let ctx = JobContext {
         grid,
@@ -177,6 +186,7 @@ pub fn run_frame(
         keep_buffers: declared.is_some(),
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
+    clock.lap("raster_shade");
     let made = declared.map(|pass| {
         let budget = (prepared.lights.len(), opts.simd_width);
         (
@@ -184,6 +194,9 @@ pub fn run_frame(
             view_pass::run(pass, scheme, ctx.view(pass.to), ctx.offsets.len(), budget, &outputs),
         )
     });
+    if made.is_some() {
+        clock.lap("view_pass");
+    }
     let sizes = CacheSizes {
         depth: layout.depth_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
         color: layout.color_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
@@ -196,6 +209,7 @@ pub fn run_frame(
     if scheduler.stores_vertex_output() {
         traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
     }
+    clock.lap("memory");
     let [left, right] = views;
     let views = [(0, left), (1, right)].map(|(v, setup)| match &made {
         Some((pass, made)) if pass.to as usize == v => {
@@ -212,12 +226,14 @@ pub fn run_frame(
         }
         _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
     });
+    clock.lap("assemble");
     FrameOutput {
         views,
         traffic,
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),
+        stage_times: clock.laps,
     }
 }
 
