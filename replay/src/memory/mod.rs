@@ -63,11 +63,15 @@ impl Default for AccessLog {
 }
 
 impl AccessLog {
+    /// A log whose first segment (command 0) has begun.
     pub fn new() -> Self {
         AccessLog {
             entries: Default::default(),
             last: [u64::MAX; STREAMS],
-            segments: Vec::new(),
+            segments: vec![Segment {
+                command: 0,
+                start: [0; STREAMS],
+            }],
         }
     }
 
@@ -87,9 +91,6 @@ impl AccessLog {
     /// a write.
     #[inline]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
-        if self.segments.is_empty() {
-            self.begin(0);
-        }
         let entry = if write { WRITE_BIT } else { 0 } | (line & LINE_MASK);
         let s = stream as usize;
         let last = &mut self.last[s];

@@ -78,7 +78,6 @@ pub fn run(
     let mut work = Vec::new();
     let mut first = JobOutput::new(simd_width);
     let mut log = crate::memory::AccessLog::new();
-    log.begin(0);
     let v = pass.to as usize;
     first.account(v, &mut log, |acc| {
         scheme
@@ -91,7 +90,6 @@ pub fn run(
         .map(|pixels| {
             let mut out = JobOutput::new(simd_width);
             let mut log = crate::memory::AccessLog::new();
-            log.begin(0);
             let mut colors = Vec::with_capacity(pixels.len());
             out.account(v, &mut log, |acc| {
                 scheme
