@@ -19,7 +19,8 @@ use rayon::prelude::*;
 use shadetrace_formats::results::{
     CacheReport, ListStats, RasterStats, ShadingCacheStats, ShadingCost, ShadowPassStats, Traffic, VertexStats,
 };
-use shadetrace_formats::{Eye, Frame, LightKind, Meta, Scene};
+use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
+use std::sync::{Arc, Mutex};
 
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
@@ -47,7 +48,18 @@ pub struct PreparedScene {
     pub double_sided: Vec<bool>,
     /// First free line of the texture address space (the shadow map goes there).
     pub texture_lines: u64,
+    /// Shadow maps already rendered, shared by every run over this scene: a map depends on
+    /// the casters' positions and its size only, so a scene whose meshes never move renders
+    /// each size once, and a moving one once per frame for all presets ("model only what a
+    /// scene requires"). Only the latest frame's maps are kept, so memory stays flat.
+    shadow_maps: Mutex<Vec<(ShadowKey, Arc<ShadowMap>)>>,
+    /// No mesh moves: every frame's shadow map is the same.
+    static_casters: bool,
 }
+
+/// Which shadow map: the frame it was rendered for (`None` when the casters never move) and
+/// its size.
+type ShadowKey = (Option<u32>, u32);
 
 impl PreparedScene {
     pub fn new(scene: Scene) -> PreparedScene {
@@ -71,12 +83,15 @@ impl PreparedScene {
             })
             .collect();
         let double_sided = scene.materials.iter().map(|m| m.double_sided).collect();
+        let static_casters = scene.geometry.meshes.iter().all(|m| m.motion == Motion::Static);
         PreparedScene {
             scene,
             textures,
             lights,
             double_sided,
             texture_lines: line,
+            shadow_maps: Mutex::new(Vec::new()),
+            static_casters,
         }
     }
 }
@@ -129,7 +144,7 @@ pub fn run_frame(
     let mut clock = StageClock::start();
     let geometry = FrameGeometry::build(&prepared.scene, frame);
     clock.lap("geometry");
-    let shadow = shadow_pass(prepared, meta, &geometry, opts);
+    let shadow = shadow_pass(prepared, meta, frame.index, &geometry, opts);
     let receivers: Option<ReceiverHierarchy> = match (&shadow, scheme.edge_receiver_delta()) {
         (Some(map), Some(delta)) => Some(map.receivers(delta)),
         _ => None,
@@ -139,7 +154,7 @@ pub fn run_frame(
         materials: &prepared.scene.materials,
         textures: &prepared.textures,
         lights: &prepared.lights,
-        shadow: shadow.as_ref(),
+        shadow: shadow.as_deref(),
         receivers: receivers.as_ref(),
     };
     // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
@@ -237,25 +252,39 @@ pub fn run_frame(
     }
 }
 
-/// The shadow map of the trace's shadowed directional light, if it has one.
+/// The shadow map of the trace's shadowed directional light, if it has one: rendered, or
+/// the one already rendered for the same casters and size.
 fn shadow_pass(
     prepared: &PreparedScene,
     meta: &Meta,
+    frame: u32,
     geometry: &FrameGeometry,
     opts: &ReplayOptions,
-) -> Option<ShadowMap> {
+) -> Option<Arc<ShadowMap>> {
     let direction = prepared.lights.iter().find(|l| l.shadowed).and_then(|l| match l.kind {
         LightKind::Directional { direction } => Some(direction),
         _ => None,
     })?;
-    Some(ShadowMap::render(
+    let key = ((!prepared.static_casters).then_some(frame), opts.shadow_map_size);
+    // Runs replay a frame one after another, so the lock is never contended.
+    let mut maps = prepared
+        .shadow_maps
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, map)) = maps.iter().find(|(k, _)| *k == key) {
+        return Some(map.clone());
+    }
+    let map = Arc::new(ShadowMap::render(
         geometry,
         prepared.scene.materials.len(),
         direction,
         &meta.bounds,
         opts.shadow_map_size,
         prepared.texture_lines,
-    ))
+    ));
+    maps.retain(|((f, _), _)| *f == key.0);
+    maps.push((key, map.clone()));
+    Some(map)
 }
 
 /// A scheduler's job as the commands of the scheme's passes: a depth pre-pass of every unit
