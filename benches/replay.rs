@@ -1,8 +1,10 @@
 //! `cargo bench`: one stereo frame at the paper resolution, 1280x1440 per eye, of the
 //! reference (forward), sort-middle and the multi-rate schemes (he-2x2, tile-pair, amfs,
-//! texel) on the floor, spheres and hairball scenes. divan reports time per frame and
-//! pixels per second (both eyes). Speed targets live here, never in tests; compare against
-//! Mesa's llvmpipe with `../shared/anchors/llvmpipe/`.
+//! texel) on the floor, spheres and hairball scenes, at 1 and 2 threads. divan reports time
+//! per frame and pixels per second (items/s: both eyes). These scenes do not move, so their
+//! shadow map is rendered once per run and the frames timed here are the steady state of a
+//! long run. Speed targets live here, never in tests; compare against Mesa's llvmpipe with
+//! `scripts/bench-llvmpipe.sh`.
 //!
 //! divan (not criterion): a small build on 2 cores (it reuses clap) and per-argument
 //! sample counts, so a one-second frame is timed three times rather than for a fixed
@@ -29,6 +31,24 @@ impl fmt::Display for Case {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
         write!(f, "{}/{}", self.0, self.1)
     }
+}
+
+/// A case at a thread count (rayon's pool size).
+#[derive(Clone, Copy)]
+struct Threaded(Case, usize);
+
+impl fmt::Display for Threaded {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "{}/{}t", self.0, self.1)
+    }
+}
+
+const THREADS: [usize; 2] = [1, 2];
+
+fn cases() -> impl Iterator<Item = Threaded> {
+    CASES
+        .into_iter()
+        .flat_map(|case| THREADS.into_iter().map(move |t| Threaded(case, t)))
 }
 
 const CASES: [Case; 16] = [
@@ -72,12 +92,13 @@ fn trace(scene: &'static str) -> &'static LoadedTrace {
     })
 }
 
-#[divan::bench(args = CASES, sample_count = 3, sample_size = 1)]
-fn stereo_frame(bencher: Bencher, case: Case) {
+#[divan::bench(args = cases(), sample_count = 3, sample_size = 1)]
+fn stereo_frame(bencher: Bencher, Threaded(case, threads): Threaded) {
     let trace = trace(case.0);
     let preset = Preset::find(case.1).unwrap_or_else(|e| panic!("{e}"));
     let runs = [(preset, ReplayOptions::default())];
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     bencher
         .counter(ItemsCount::new(2 * 1280 * 1440usize))
-        .bench(|| replay_all(trace, &runs, None, &mut |_, _| Ok(()), &mut |_| {}).unwrap());
+        .bench(|| pool.install(|| replay_all(trace, &runs, None, &mut |_, _| Ok(()), &mut |_| {}).unwrap()));
 }

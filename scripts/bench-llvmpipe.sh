@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# shadetrace against Mesa's llvmpipe rendering the same stereo frame (1280x1440 per eye,
+# 2048² shadow map, Lambert + Phong + 5x5 PCF + trilinear albedo), back to back at 1 and 2
+# threads: ms per frame of forward, tile-pair and amfs (shadetrace's results.json
+# timing.wall_s of one replayed frame, median of REPS runs) beside llvmpipe's frame_ms
+# (bench.py, median of its repetitions), and the ratio. The kit (bench.py, cam.py) is
+# ../shared/anchors/llvmpipe/ beside the repository, or $LLVMPIPE_KIT.
+# Usage: [SHADETRACE_BIN=path] scripts/bench-llvmpipe.sh [--reps N] SCENE.glb...
+# (single-file GLB works best)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+reps=3
+if [ "${1:-}" = "--reps" ]; then reps=$2; shift 2; fi
+[ $# -gt 0 ] || { echo "usage: scripts/bench-llvmpipe.sh [--reps N] SCENE.glb..." >&2; exit 2; }
+kit=${LLVMPIPE_KIT:-../shared/anchors/llvmpipe}
+[ -f "$kit/bench.py" ] || { echo "$kit/bench.py not found (set LLVMPIPE_KIT)" >&2; exit 2; }
+kit=$(realpath "$kit")
+# What the kit needs: Debian's Mesa (root only) and PyPI's moderngl.
+if ! python3 -c "import moderngl, numpy" 2>/dev/null; then
+  if [ "$(id -u)" = 0 ]; then apt-get install -y -q libgl1-mesa-dri libegl1 libegl-mesa0 >/dev/null; fi
+  pip install -q moderngl glcontext numpy trimesh
+fi
+# SHADETRACE_BIN measures another build (e.g. a before/after pair) against the same anchor.
+if [ -z "${SHADETRACE_BIN:-}" ]; then cargo build --release --quiet; fi
+bin=$(realpath "${SHADETRACE_BIN:-target/release/shadetrace}")
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+printf '%-18s %7s %-10s %10s %11s %7s\n' scene threads preset "st ms" "llvmpipe ms" ratio
+for scene in "$@"; do
+  scene=$(realpath "$scene")
+  name=$(basename "$scene" | sed 's/\.[^.]*$//')
+  flags=$(cd "$work" && python3 "$kit/cam.py" "$scene" | python3 -c "import json,sys; print(json.load(sys.stdin)['capture_flags'])")
+  (cd "$work" && "$bin" capture "$scene" -o "$name.strace" --frames 3 $flags --quiet)
+  for threads in 1 2; do
+    python3 "$kit/bench.py" "$scene" --threads "$threads" --shaders full --reps "$reps" --frames 10 --warmup 2 \
+      --json "$work/lp.json" >"$work/lp.log" 2>&1 || { cat "$work/lp.log" >&2; exit 1; }
+    lp=$(python3 -c "import json; print(json.load(open('$work/lp.json'))['summary'][0]['frame_ms'])")
+    for preset in forward tile-pair amfs; do
+      ms=$(for _ in $(seq "$reps"); do
+        RAYON_NUM_THREADS=$threads "$bin" replay "$work/$name.strace" --preset "$preset" --frames 0 --no-images \
+          --no-reference -q --out "$work/out"
+        python3 -c "import json; print(1e3 * json.load(open('$work/out/results.json'))['timing']['wall_s'])"
+      done | median)
+      printf '%-18s %7s %-10s %10.0f %11.0f %7.2f\n' "$name" "$threads" "$preset" "$ms" "$lp" "$(echo "$ms / $lp" | bc -l)"
+    done
+  done
+done
