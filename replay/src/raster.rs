@@ -59,34 +59,219 @@ pub fn overlaps(t: &SetupTriangle, r: Rect) -> bool {
 }
 
 /// Calls `emit` for every quad of the tile the triangle covers, in raster order.
+///
+/// Per row of samples, each edge function is linear in x, so the samples it accepts form
+/// one interval of pixel columns, found exactly by integer division; a quad's coverage is
+/// then a few comparisons, and columns outside every interval are never visited. The
+/// result is exactly the per-sample edge test's (tested against it).
 pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: impl FnMut(Quad)) {
     let x0 = t.bbox[0].max(tile.x0) & !1;
     let y0 = t.bbox[1].max(tile.y0) & !1;
     let x1 = (t.bbox[2] + 1).min(tile.x1);
     let y1 = (t.bbox[3] + 1).min(tile.y1);
+    if x0 >= x1 || y0 >= y1 {
+        return;
+    }
     let samples = offsets.len();
+    // The pixel columns the quads of [x0, x1) reach, inside the tile.
+    let last_quad = x0 + (x1 - 1 - x0) / 2 * 2;
+    let (col_lo, col_hi) = (x0.max(tile.x0) as i64, (last_quad + 1).min(tile.x1 - 1) as i64);
+    // Per lane row (0, 1) and sample: the covered columns [lo, hi] (empty when lo > hi).
+    let mut spans = [[(0i64, -1i64); 8]; 2];
     let mut y = y0;
     while y < y1 {
-        let mut x = x0;
-        while x < x1 {
-            let mut coverage = 0u32;
-            for lane in 0..4 {
-                let (px, py) = (x + (lane & 1), y + (lane >> 1));
-                if px >= tile.x1 || py >= tile.y1 || px < tile.x0 || py < tile.y0 {
-                    continue;
+        let (mut row_lo, mut row_hi) = (i64::MAX, i64::MIN);
+        for (r, row) in spans.iter_mut().enumerate() {
+            let py = y + r as u32;
+            for (s, &off) in offsets.iter().enumerate() {
+                row[s] = if py >= tile.y1 || py < tile.y0 {
+                    (0, -1)
+                } else {
+                    let (lo, hi) = covered_columns(t, py, off);
+                    (lo.max(col_lo), hi.min(col_hi))
+                };
+                if row[s].0 <= row[s].1 {
+                    row_lo = row_lo.min(row[s].0);
+                    row_hi = row_hi.max(row[s].1);
                 }
-                for (s, &off) in offsets.iter().enumerate() {
-                    let (sx, sy) = sample_position(px, py, off);
-                    if t.inside(t.edges(sx, sy)) {
-                        coverage |= 1 << (lane as usize * samples + s);
+            }
+        }
+        if row_lo <= row_hi {
+            let mut x = (row_lo as u32 & !1).max(x0);
+            while x < x1 && i64::from(x) <= row_hi {
+                let mut coverage = 0u32;
+                for lane in 0..4 {
+                    let (px, r) = (i64::from(x + (lane & 1)), (lane >> 1) as usize);
+                    for (s, &(lo, hi)) in spans[r][..samples].iter().enumerate() {
+                        if lo <= px && px <= hi {
+                            coverage |= 1 << (lane as usize * samples + s);
+                        }
+                    }
+                }
+                if coverage != 0 {
+                    emit(Quad { x, y, coverage });
+                }
+                x += 2;
+            }
+        }
+        y += 2;
+    }
+}
+
+/// The pixel columns whose sample at `offset` in row `py` all three edges accept:
+/// `[lo, hi]`, empty when `lo > hi`.
+fn covered_columns(t: &SetupTriangle, py: u32, offset: [i64; 2]) -> (i64, i64) {
+    let sy = py as i64 * SUBPIXEL + offset[1] * (SUBPIXEL / 16);
+    let ox = offset[0] * (SUBPIXEL / 16);
+    let (mut lo, mut hi) = (i64::MIN, i64::MAX);
+    for (i, (a, b)) in [(t.v[1], t.v[2]), (t.v[2], t.v[0]), (t.v[0], t.v[1])]
+        .into_iter()
+        .enumerate()
+    {
+        // E(sx) = (b0 - a0)(sy - a1) - d (sx - a0) >= bias  <=>  d sx <= m.
+        let d = b[1] - a[1];
+        let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - t.bias[i];
+        match d.signum() {
+            0 if m < 0 => return (0, -1),
+            0 => {}
+            // sx <= m / d, sx = px SUBPIXEL + ox.
+            1 => hi = hi.min(floor_div(floor_div(m, d) - ox, SUBPIXEL)),
+            _ => lo = lo.max(ceil_div(ceil_div(m, d) - ox, SUBPIXEL)),
+        }
+    }
+    (lo, hi)
+}
+
+fn floor_div(a: i64, b: i64) -> i64 {
+    let q = a / b;
+    if (a % b != 0) && ((a < 0) != (b < 0)) {
+        q - 1
+    } else {
+        q
+    }
+}
+
+fn ceil_div(a: i64, b: i64) -> i64 {
+    -floor_div(-a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The definition: every sample of every lane of every quad tested on its own.
+    fn rasterize_by_samples(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: impl FnMut(Quad)) {
+        let x0 = t.bbox[0].max(tile.x0) & !1;
+        let y0 = t.bbox[1].max(tile.y0) & !1;
+        let x1 = (t.bbox[2] + 1).min(tile.x1);
+        let y1 = (t.bbox[3] + 1).min(tile.y1);
+        let samples = offsets.len();
+        let mut y = y0;
+        while y < y1 {
+            let mut x = x0;
+            while x < x1 {
+                let mut coverage = 0u32;
+                for lane in 0..4 {
+                    let (px, py) = (x + (lane & 1), y + (lane >> 1));
+                    if px >= tile.x1 || py >= tile.y1 || px < tile.x0 || py < tile.y0 {
+                        continue;
+                    }
+                    for (s, &off) in offsets.iter().enumerate() {
+                        let (sx, sy) = sample_position(px, py, off);
+                        if t.inside(t.edges(sx, sy)) {
+                            coverage |= 1 << (lane as usize * samples + s);
+                        }
+                    }
+                }
+                if coverage != 0 {
+                    emit(Quad { x, y, coverage });
+                }
+                x += 2;
+            }
+            y += 2;
+        }
+    }
+
+    #[test]
+    fn spans_give_exactly_the_per_sample_coverage() {
+        use crate::geometry::{FrameGeometry, Triangle};
+        use crate::vertex_stage::setup_view;
+        use glam::{Mat4, Vec3};
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (width, height) = (67, 45);
+        let mut checked = 0;
+        for n in 0..600 {
+            // Triangles from tiny to larger than the screen, some thin, some off screen; a
+            // third with vertices on half-pixel positions, so that edges pass exactly
+            // through sample positions (the top-left rule decides there).
+            let scale = [0.02, 0.2, 1.0, 4.0][(next() * 4.0) as usize % 4];
+            let c = Vec3::new(next() * 2.4 - 1.2, next() * 2.4 - 1.2, 0.5);
+            let snap = |v: Vec3| {
+                let hx = ((v.x + 1.0) * width as f32).round();
+                let hy = ((v.y + 1.0) * height as f32).round();
+                Vec3::new(hx / width as f32 - 1.0, hy / height as f32 - 1.0, v.z)
+            };
+            let corner = |c: Vec3, scale: f32, r: f32, q: f32| {
+                let v = c + Vec3::new((r - 0.5) * scale, (q - 0.5) * scale, 0.0);
+                if n % 3 == 0 {
+                    snap(v)
+                } else {
+                    v
+                }
+            };
+            let p = [
+                corner(c, scale, next(), next()),
+                corner(c, scale, next(), next()),
+                corner(c, scale, next(), next()),
+            ];
+            let geometry = FrameGeometry {
+                positions: p.to_vec(),
+                normals: vec![Vec3::Z; 3],
+                uvs: vec![glam::Vec2::ZERO; 3],
+                triangles: vec![Triangle {
+                    vertices: [0, 1, 2],
+                    material: 0,
+                    patch: u32::MAX,
+                    mesh: 0,
+                }],
+            };
+            let (setups, _) = setup_view(&geometry, &[true], Mat4::IDENTITY, width, height);
+            for t in &setups {
+                for msaa in [1, 4, 8] {
+                    let offsets = sample_offsets(msaa);
+                    for tile in [
+                        Rect {
+                            x0: 0,
+                            y0: 0,
+                            x1: width,
+                            y1: height,
+                        },
+                        Rect {
+                            x0: 16,
+                            y0: 16,
+                            x1: 32,
+                            y1: 32,
+                        },
+                        Rect {
+                            x0: 64,
+                            y0: 32,
+                            x1: 67,
+                            y1: 45,
+                        },
+                    ] {
+                        let (mut fast, mut exact) = (Vec::new(), Vec::new());
+                        rasterize(t, tile, offsets, |q| fast.push(q));
+                        rasterize_by_samples(t, tile, offsets, |q| exact.push(q));
+                        assert_eq!(fast, exact, "triangle {:?}, tile {tile:?}, msaa {msaa}", t.v);
+                        checked += exact.len();
                     }
                 }
             }
-            if coverage != 0 {
-                emit(Quad { x, y, coverage });
-            }
-            x += 2;
         }
-        y += 2;
+        assert!(checked > 10_000, "the triangles cover quads: {checked}");
     }
 }
