@@ -35,8 +35,11 @@ pub enum Stream {
     Texture = 3,
 }
 
-const WRITE_BIT: u64 = 1 << 61;
-const LINE_MASK: u64 = WRITE_BIT - 1;
+/// Log entries are 32-bit: a line number below 2^31 and a write bit. Every stream's address
+/// space fits: the largest, texture, holds at most a trace's 4 GiB Textures chunk with its
+/// mips and the shadow map, about 2^25 lines.
+const WRITE_BIT: u32 = 1 << 31;
+const LINE_MASK: u32 = WRITE_BIT - 1;
 const STREAMS: usize = 4;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
@@ -44,8 +47,8 @@ const STREAMS: usize = 4;
 /// One log per job, reused from command to command: no allocation per unit.
 #[derive(Clone, Debug)]
 pub struct AccessLog {
-    entries: [Vec<u64>; STREAMS],
-    last: [u64; STREAMS],
+    entries: [Vec<u32>; STREAMS],
+    last: [u32; STREAMS],
     segments: Vec<Segment>,
 }
 
@@ -67,7 +70,7 @@ impl AccessLog {
     pub fn new() -> Self {
         AccessLog {
             entries: Default::default(),
-            last: [u64::MAX; STREAMS],
+            last: [u32::MAX; STREAMS],
             segments: vec![Segment {
                 command: 0,
                 start: [0; STREAMS],
@@ -83,7 +86,7 @@ impl AccessLog {
             Some(last) if last.start == start => last.command = command,
             _ => self.segments.push(Segment { command, start }),
         }
-        self.last = [u64::MAX; STREAMS];
+        self.last = [u32::MAX; STREAMS];
     }
 
     /// Records an access; a repeat of the stream's previous access within the command is
@@ -91,7 +94,8 @@ impl AccessLog {
     /// a write.
     #[inline]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
-        let entry = if write { WRITE_BIT } else { 0 } | (line & LINE_MASK);
+        debug_assert!(line <= u64::from(LINE_MASK), "line {line} beyond the log's address space");
+        let entry = if write { WRITE_BIT } else { 0 } | (line as u32 & LINE_MASK);
         let s = stream as usize;
         let last = &mut self.last[s];
         if *last == entry || (!write && *last == entry | WRITE_BIT) {
@@ -111,7 +115,7 @@ impl AccessLog {
     }
 
     /// Stream `s`'s accesses of segment `i`.
-    fn stream(&self, i: usize, s: usize) -> &[u64] {
+    fn stream(&self, i: usize, s: usize) -> &[u32] {
         let start = self.segments[i].start[s];
         let end = self
             .segments
@@ -271,7 +275,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
         let framebuffer = matches!(stream, Stream::Depth | Stream::Color);
         for &(log, i) in segments {
             for &entry in log.stream(i, stream as usize) {
-                let line = entry & LINE_MASK;
+                let line = u64::from(entry & LINE_MASK);
                 if !cache.holds(line) {
                     continue;
                 }
