@@ -7,6 +7,8 @@ use std::io::BufReader;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use rayon::prelude::*;
+
 use shadetrace_formats::results::{
     FrameResult, FrameTotals, RefinedPixels, RunResult, Timing, ViewResult, RESULTS_SCHEMA_VERSION,
 };
@@ -227,28 +229,38 @@ impl Replay {
         let info = self.preset.scheme_info();
         let mut views = Vec::new();
         let mut images = Vec::new();
-        for (v, view) in out.views.into_iter().enumerate() {
-            self.size = (view.width, view.height);
-            self.pixels += (view.width * view.height) as u64;
+        let mut views_out = Vec::with_capacity(2);
+        for mut view in out.views {
             let color = Rgba8Image {
                 width: view.width,
                 height: view.height,
-                pixels: view.pixels,
+                pixels: std::mem::take(&mut view.pixels),
             };
-            let (relative_cost, quality, error) = match reference {
+            views_out.push((view, color));
+        }
+        // Both views' comparisons with the reference at once (each is deterministic alone).
+        let compared: Vec<Result<_, String>> = views_out
+            .par_iter()
+            .enumerate()
+            .map(|(v, (view, color))| match reference {
                 Some(r) => {
                     let issued = r.result.views[v].cost.issued();
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
                     let reference = &r.images.views[v].color;
-                    let error = quality::error_map(reference, &color);
-                    (
+                    let error = quality::error_map(reference, color);
+                    Ok((
                         rel,
-                        Some(quality::compare(reference, &color, &r.covered[v])?),
+                        Some(quality::compare(reference, color, &r.covered[v])?),
                         Some(error),
-                    )
+                    ))
                 }
-                None => (None, None, None),
-            };
+                None => Ok((None, None, None)),
+            })
+            .collect();
+        for (v, ((view, color), compared)) in views_out.into_iter().zip(compared).enumerate() {
+            self.size = (view.width, view.height);
+            self.pixels += (view.width * view.height) as u64;
+            let (relative_cost, quality, error) = compared?;
             self.total.cost.add(&view.cost);
             self.total.shaded_pixels += view.raster.fragments_shaded;
             if let Some(q) = quality.and_then(|q| q.ssim) {

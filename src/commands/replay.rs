@@ -1,10 +1,13 @@
 //! `shadetrace replay`: one trace, one preset; results JSON and images.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
 
 use shadetrace_formats::results::RunResult;
 use shadetrace_formats::results::{stage_names, traffic_names};
-use shadetrace_replay::images::{heat_map, robust_max, side_by_side};
+use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image};
 use shadetrace_replay::scheme::Effects;
 use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, ReplayOptions, RunOutput, REFERENCE_PRESET};
 
@@ -112,31 +115,43 @@ const ERROR_SCALE: f32 = 32.0;
 
 /// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map, the error
 /// against the reference when it ran and, for schemes that refine, one refinement map per
-/// effect; and the stereo pair.
+/// effect; and the stereo pair. The pictures are made and encoded in parallel (each file
+/// is the same whatever the order).
 pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> Result<(), String> {
     let stem = format!("frame{:04}", frame.frame);
+    // (file name, how to make the picture), in a fixed order.
+    type Make<'a> = Box<dyn Fn() -> Cow<'a, Rgba8Image> + Send + Sync + 'a>;
+    let mut pictures: Vec<(String, Make)> = Vec::new();
     for (eye, view) in ["left", "right"].iter().zip(&frame.views) {
-        view.color.write_png(dir.join(format!("{stem}-{eye}.png")))?;
-        let heat: Vec<f32> = view.cost_heat.iter().map(|&c| c as f32).collect();
-        heat_map(
-            &heat,
-            view.color.width,
-            view.color.height,
-            robust_max(heat.iter().copied()),
-            "instr per pixel, p99 scale",
-        )
-        .write_png(dir.join(format!("{stem}-{eye}-cost.png")))?;
+        let (width, height) = (view.color.width, view.color.height);
+        pictures.push((
+            format!("{stem}-{eye}.png"),
+            Box::new(move || Cow::Borrowed(&view.color)),
+        ));
+        pictures.push((
+            format!("{stem}-{eye}-cost.png"),
+            Box::new(move || {
+                let heat: Vec<f32> = view.cost_heat.iter().map(|&c| c as f32).collect();
+                let scale = robust_max(heat.iter().copied());
+                Cow::Owned(heat_map(&heat, width, height, scale, "instr per pixel, p99 scale"))
+            }),
+        ));
         if let Some(error) = &view.error {
-            // A fixed scale, so error images compare across presets and frames.
-            let error: Vec<f32> = error.iter().map(|&e| f32::from(e)).collect();
-            heat_map(
-                &error,
-                view.color.width,
-                view.color.height,
-                Some(ERROR_SCALE),
-                "max channel error vs reference",
-            )
-            .write_png(dir.join(format!("{stem}-{eye}-error.png")))?;
+            pictures.push((
+                format!("{stem}-{eye}-error.png"),
+                Box::new(move || {
+                    // A fixed scale, so error images compare across presets and frames.
+                    let error: Vec<f32> = error.iter().map(|&e| f32::from(e)).collect();
+                    let map = heat_map(
+                        &error,
+                        width,
+                        height,
+                        Some(ERROR_SCALE),
+                        "max channel error vs reference",
+                    );
+                    Cow::Owned(map)
+                }),
+            ));
         }
         if refinement {
             for (bit, effect) in [
@@ -144,18 +159,31 @@ pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> 
                 (Effects::SPECULAR, "specular"),
                 (Effects::SHADOW, "shadow"),
             ] {
-                let refined: Vec<f32> = view
-                    .refinement
-                    .iter()
-                    .map(|&r| f32::from(r & bit.bits() != 0))
-                    .collect();
-                let label = format!("{effect} refined per pixel");
-                heat_map(&refined, view.color.width, view.color.height, Some(1.0), &label)
-                    .write_png(dir.join(format!("{stem}-{eye}-refine-{effect}.png")))?;
+                pictures.push((
+                    format!("{stem}-{eye}-refine-{effect}.png"),
+                    Box::new(move || {
+                        let refined: Vec<f32> = view
+                            .refinement
+                            .iter()
+                            .map(|&r| f32::from(r & bit.bits() != 0))
+                            .collect();
+                        let label = format!("{effect} refined per pixel");
+                        Cow::Owned(heat_map(&refined, width, height, Some(1.0), &label))
+                    }),
+                ));
             }
         }
     }
-    side_by_side(&frame.views[0].color, &frame.views[1].color).write_png(dir.join(format!("{stem}-stereo.png")))
+    let [left, right] = &frame.views;
+    pictures.push((
+        format!("{stem}-stereo.png"),
+        Box::new(move || Cow::Owned(side_by_side(&left.color, &right.color))),
+    ));
+    pictures
+        .par_iter()
+        .map(|(name, make)| make().write_png(dir.join(name)))
+        .collect::<Result<Vec<()>, String>>()
+        .map(|_| ())
 }
 
 fn print_summary(output: &RunOutput) {

@@ -94,7 +94,10 @@ impl AccessLog {
     /// a write.
     #[inline]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
-        debug_assert!(line <= u64::from(LINE_MASK), "line {line} beyond the log's address space");
+        debug_assert!(
+            line <= u64::from(LINE_MASK),
+            "line {line} beyond the log's address space"
+        );
         let entry = if write { WRITE_BIT } else { 0 } | (line as u32 & LINE_MASK);
         let s = stream as usize;
         let last = &mut self.last[s];
