@@ -176,6 +176,10 @@ fn bad_gltf_inputs_fail_cleanly() {
             "translated.gltf: node 0: ",
         ),
         (dir.path().join("does-not-exist.gltf"), "does-not-exist.gltf"),
+        (
+            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/traces/floor.strace")),
+            "this is a shadetrace trace, not a glTF file",
+        ),
     ];
     for (input, needle) in cases {
         let o = shadetrace(&["capture", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
@@ -192,6 +196,11 @@ fn bad_options_fail_cleanly() {
         (vec!["capture", "builtin:teapot", "-o", o], "teapot"),
         (vec!["capture", "builtin:floor", "-o", o, "--frames", "0"], "--frames"),
         (vec!["capture", "builtin:floor", "-o", o, "--res", "0x10"], "--res"),
+        (
+            vec!["capture", "builtin:floor", "-o", o, "--ipd", "-1"],
+            "--ipd -1 must be",
+        ),
+        (vec!["capture", "builtin:floor", "-o", o, "--near", "-0.5"], "--near"),
         (vec!["capture", "builtin:floor", "-o", o, "--path", "spiral"], "spiral"),
         (
             vec!["capture", "builtin:floor", "-o", o, "--path", "camera:3"],
@@ -514,4 +523,63 @@ fn a_replay_never_leaves_results_beside_another_runs_pictures() {
         !out.join("results.json").exists(),
         "an old results.json beside new pictures"
     );
+}
+
+#[test]
+fn check_outside_a_corpus_says_how_to_name_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_shadetrace"))
+        .arg("check")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_clean_failure(&o, "--traces DIR", None);
+}
+
+#[test]
+fn texture_maps_that_are_not_captured_are_named_in_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = support::write_textured_gltf(dir.path());
+    let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    doc["materials"][0]["normalTexture"] = serde_json::json!({ "index": 0 });
+    doc["materials"][0]["emissiveTexture"] = serde_json::json!({ "index": 0 });
+    std::fs::write(&gltf, doc.to_string()).unwrap();
+    let out = dir.path().join("out.strace");
+    let o = shadetrace(&[
+        "capture",
+        gltf.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "32x36",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let warning = stderr(&o);
+    assert!(
+        warning.contains("material 0") && warning.contains("normal, emissive texture map(s) ignored"),
+        "{warning}"
+    );
+}
+
+#[test]
+fn the_compare_table_fits_100_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = concat!(env!("CARGO_MANIFEST_DIR"), "/traces/spheres.strace");
+    let out = dir.path().join("cmp");
+    let o = shadetrace(&[
+        "compare",
+        trace,
+        "--res",
+        "32x36",
+        "--frames",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = stdout(&o);
+    assert!(table.lines().any(|l| l.starts_with("preset ")), "{table}");
+    for line in table.lines() {
+        assert!(line.chars().count() <= 100, "{} columns: {line}", line.chars().count());
+    }
 }

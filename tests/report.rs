@@ -157,3 +157,44 @@ fn replay_writes_error_images_against_the_reference() {
     let without = run("without", &["--no-reference"]);
     assert!(!without.join("frame0000-left-error.png").exists());
 }
+
+#[test]
+fn compare_writes_the_pictures_of_the_frames_asked_for() {
+    let pictures = |images: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().to_str().unwrap();
+        let args = [
+            "compare",
+            "traces/floor.strace",
+            "--presets",
+            "sort-middle",
+            "--res",
+            "32x36",
+            "--frames",
+            "1..3",
+            "--images",
+            images,
+            "--out",
+            out,
+            "--quiet",
+        ];
+        let o = shadetrace(&args, None);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut names: Vec<String> = std::fs::read_dir(dir.path().join("sort-middle"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".png"))
+            .collect();
+        names.sort();
+        names
+    };
+    let first = pictures("first");
+    assert!(
+        !first.is_empty() && first.iter().all(|n| n.starts_with("frame0001-")),
+        "{first:?}"
+    );
+    let all = pictures("all");
+    assert_eq!(all.len(), 2 * first.len(), "{all:?}");
+    assert!(all.iter().any(|n| n.starts_with("frame0002-")));
+    assert!(pictures("none").is_empty());
+}

@@ -177,6 +177,11 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
             "larger than the {MAX_GLTF_FILE_BYTES} bytes capture reads"
         )));
     }
+    if bytes.starts_with(b"STRC") {
+        return Err(input(
+            "this is a shadetrace trace, not a glTF file (use `shadetrace info` or `replay` on it)",
+        ));
+    }
     let sha256: [u8; 32] = Sha256::digest(&bytes).into();
     let container = data::split_container(&bytes)?;
     let mut warnings = Warnings {
@@ -214,14 +219,17 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
     }
 
     let Importer {
-        materials,
+        mut materials,
         motion,
         meshes,
         lights,
         cameras,
-        warnings,
+        mut warnings,
         ..
     } = importer;
+    for line in std::mem::take(&mut materials.dropped_maps) {
+        warnings.push(line);
+    }
     let (materials, textures) = materials.into_parts();
     let lossy = |s: Option<&std::ffi::OsStr>| s.map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     Ok(SourceScene {

@@ -24,25 +24,25 @@ pub struct Args {
     #[arg(long, default_value = "orbit")]
     path: String,
     /// Interpupillary distance in metres (0.07 = 70 mm, as in the tile-pair paper).
-    #[arg(long, default_value_t = 0.07)]
+    #[arg(long, default_value_t = 0.07, allow_negative_numbers = true)]
     ipd: f32,
     /// Per-eye resolution WIDTHxHEIGHT.
     #[arg(long, default_value = "1280x1440", value_parser = shadetrace_replay::options::parse_resolution)]
     res: (u32, u32),
     /// Vertical field of view in degrees (default: the camera's, the flythrough's, or 90).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     fov: Option<f32>,
     /// Zero-parallax distance of the off-axis frusta, metres.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     convergence: f32,
     /// Near plane in metres (default: the camera's znear or 0.05).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     near: Option<f32>,
     /// Largest texture edge kept; larger textures are filtered down.
     #[arg(long, default_value_t = 1024)]
     max_texture: u32,
     /// Frames per second for sampling animation.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
     fps: f32,
     /// zstd compression level (does not change the content hash).
     #[arg(long, default_value_t = DEFAULT_ZSTD_LEVEL, value_parser = clap::value_parser!(i32).range(1..=22))]

@@ -54,7 +54,12 @@ fn golden_path(dir: &Path, trace: &str, trace_hash: &str, preset: &str, options_
 
 pub fn run(args: Args) -> Result<(), String> {
     let manifest_path = args.traces.join("MANIFEST.toml");
-    let text = std::fs::read_to_string(&manifest_path).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    let text = std::fs::read_to_string(&manifest_path).map_err(|e| {
+        format!(
+            "{}: {e} (check runs on a corpus directory: --traces DIR, default ./traces of a shadetrace checkout)",
+            manifest_path.display()
+        )
+    })?;
     let manifest: Manifest =
         toml::from_str(&text).map_err(|e| format!("{}: {}", manifest_path.display(), e.message()))?;
     let presets: Vec<Preset> = if args.presets.is_empty() {

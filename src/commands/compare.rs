@@ -25,9 +25,21 @@ pub struct Args {
     /// Output directory.
     #[arg(long, default_value = "compare-out")]
     out: PathBuf,
+    /// Which frames' pictures to write per preset: the first (what the report shows), all,
+    /// or none.
+    #[arg(long, value_enum, default_value_t = ImageFrames::First)]
+    images: ImageFrames,
     /// No progress bars, no table.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// Which frames' pictures a run writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ImageFrames {
+    First,
+    All,
+    None,
 }
 
 /// The presets to run: the reference first, then the others in the order given.
@@ -61,6 +73,7 @@ pub fn run_presets(
     presets: &[Preset],
     opts: &ReplayOptions,
     dir: &Path,
+    images: ImageFrames,
     quiet: bool,
 ) -> Result<PresetRuns, String> {
     let mut runnable = Vec::new();
@@ -88,12 +101,17 @@ pub fn run_presets(
         clear_previous_run(preset_dir)?;
     }
     let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
+    let first = opts.frames.map_or(0, |(a, _)| a);
     let bar = progress::bar(frames as u64, &format!("frames x {} presets", runnable.len()), quiet);
     let runs = replay_all(
         trace,
         &runnable,
         Some(opts),
-        &mut |i, images| write_frame_images(&dirs[i].0, images, dirs[i].1),
+        &mut |i, pictures| match images {
+            ImageFrames::All => write_frame_images(&dirs[i].0, pictures, dirs[i].1),
+            ImageFrames::First if pictures.frame == first => write_frame_images(&dirs[i].0, pictures, dirs[i].1),
+            _ => Ok(()),
+        },
         &mut |d| bar.set_position(d as u64),
     )?;
     bar.finish_and_clear();
@@ -112,7 +130,7 @@ pub fn run(args: Args) -> Result<(), String> {
     opts.check()?;
     let trace = load_trace(&args.trace)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    let PresetRuns { runs, skipped } = run_presets(&trace, &presets, &opts, &args.out, args.quiet)?;
+    let PresetRuns { runs, skipped } = run_presets(&trace, &presets, &opts, &args.out, args.images, args.quiet)?;
     let note = match opts.resolution {
         Some((w, h)) => format!(
             "Replayed at {w}x{h} per eye (the trace was captured at {}x{}).",

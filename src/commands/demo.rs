@@ -8,7 +8,7 @@ use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_formats::DEFAULT_ZSTD_LEVEL;
 use shadetrace_replay::{load_trace, ReplayOptions};
 
-use super::compare::{preset_list, run_presets};
+use super::compare::{preset_list, run_presets, ImageFrames};
 use super::replay::remove_if_present;
 use super::summary;
 use crate::report::{write_html, ReportSection, TraceSummary};
@@ -60,7 +60,7 @@ pub fn run(args: Args) -> Result<(), String> {
         if !args.quiet {
             println!("== {name}");
         }
-        let runs = run_presets(&trace, &presets, &opts, &dir, args.quiet)?;
+        let runs = run_presets(&trace, &presets, &opts, &dir, ImageFrames::First, args.quiet)?;
         if !args.quiet {
             let results: Vec<_> = runs.runs.iter().map(|r| &r.result).collect();
             println!("{}", summary::table(&results).trim_end());

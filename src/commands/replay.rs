@@ -48,6 +48,7 @@ pub fn run(args: Args) -> Result<(), String> {
     clear_previous_run(&args.out)?;
     let refinement = preset.scheme_info().reports_refinement;
     let bar = progress::bar(frames as u64, "frames", args.quiet);
+    let started = std::time::Instant::now();
     let mut runs = replay_all(
         &trace,
         &[(preset, opts.clone())],
@@ -63,6 +64,12 @@ pub fn run(args: Args) -> Result<(), String> {
     write_results(&args.out, &output.result)?;
     if !args.quiet {
         print_summary(&output);
+        if !args.no_reference {
+            println!(
+                "{:.2} s in all, the reference replay included",
+                started.elapsed().as_secs_f64()
+            );
+        }
         println!("wrote {}", args.out.join("results.json").display());
     }
     Ok(())

@@ -52,43 +52,10 @@ impl Columns {
         );
         h
     }
-
-    fn table_header(&self) -> Vec<String> {
-        let mut h: Vec<String> = ["preset", "scheduler", "scheme", "frames", "issued"]
-            .map(String::from)
-            .to_vec();
-        h.extend(self.stages.iter().cloned());
-        h.extend(["rel.cost", "SIMD", "min SSIM", "covered", "min PSNR"].map(String::from));
-        h.extend(self.classes.iter().map(|c| format!("{} KiB", short_class(c))));
-        h.extend(
-            [
-                "total KiB",
-                "tile ent.",
-                "tile KiB",
-                "pair ent.",
-                "pair KiB",
-                "wall s",
-                "Mpix/s",
-            ]
-            .map(String::from),
-        );
-        h
-    }
-}
-
-/// Short table labels of the common traffic classes (others print as named).
-fn short_class(class: &str) -> &str {
-    match class {
-        "depth_color" => "d+c",
-        "indices" => "idx",
-        "triangle_data" => "tri",
-        "texture" => "tex",
-        other => other,
-    }
 }
 
 /// Columns printed left-aligned (names); the rest are numbers, right-aligned.
-const TEXT_COLUMNS: usize = 3;
+const TEXT_COLUMNS: usize = 1;
 
 /// Writes `summary.csv` at `path`, one row per run.
 pub fn write_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
@@ -165,9 +132,8 @@ pub fn write_frames_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> 
 
 /// The summary as an aligned text table (header line, then one line per run).
 pub fn table(runs: &[&RunResult]) -> String {
-    let columns = Columns::of(runs);
-    let header = columns.table_header();
-    let rows: Vec<Vec<String>> = runs.iter().map(|r| table_row(r, &columns)).collect();
+    let header = TABLE_HEADER.map(String::from);
+    let rows: Vec<Vec<String>> = runs.iter().map(|r| table_row(r)).collect();
     let widths: Vec<usize> = (0..header.len())
         .map(|c| rows.iter().map(|r| r[c].len()).fold(header[c].len(), usize::max))
         .collect();
@@ -256,20 +222,17 @@ fn csv_row(r: &RunResult, columns: &Columns) -> Vec<String> {
     row
 }
 
-fn table_row(r: &RunResult, columns: &Columns) -> Vec<String> {
+/// The terminal table's columns: what one compares at a glance, within 100 columns; the
+/// counters per stage, traffic per class and list sizes are in `summary.csv`.
+const TABLE_HEADER: [&str; 9] = [
+    "preset", "frames", "rel.cost", "SIMD", "min SSIM", "covered", "min PSNR", "DRAM MiB", "wall s",
+];
+
+fn table_row(r: &RunResult) -> Vec<String> {
     let t = &r.total;
-    let tr = &t.traffic;
-    let l = lists(r);
-    let kib = |bytes: u64| format!("{:.1}", bytes as f64 / 1024.0);
-    let mut row = vec![
+    vec![
         r.preset.clone(),
-        r.scheduler.clone(),
-        r.scheme.clone(),
         r.frames.len().to_string(),
-        t.cost.issued().to_string(),
-    ];
-    row.extend(columns.stages.iter().map(|s| t.cost.stage(s).issued().to_string()));
-    row.extend([
         t.relative_cost
             .map_or_else(|| "-".to_string(), |c| format!("{:.2}%", 100.0 * c)),
         format!("{:.1}%", 100.0 * t.cost.simd_utilization()),
@@ -281,16 +244,7 @@ fn table_row(r: &RunResult, columns: &Columns) -> Vec<String> {
             None if measured(r) => "inf".to_string(),
             None => "-".to_string(),
         },
-    ]);
-    row.extend(columns.classes.iter().map(|c| kib(tr.bytes(c))));
-    row.extend([
-        kib(tr.total()),
-        l.tile_entries.to_string(),
-        kib(l.tile_list_bytes),
-        l.tile_pair_entries.to_string(),
-        kib(l.tile_pair_list_bytes),
+        format!("{:.2}", t.traffic.total() as f64 / (1024.0 * 1024.0)),
         format!("{:.2}", r.timing.wall_s),
-        format!("{:.2}", r.timing.pixels_per_s / 1e6),
-    ]);
-    row
+    ]
 }

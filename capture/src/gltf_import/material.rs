@@ -76,6 +76,8 @@ pub(super) struct Materials<'a> {
     /// File texture to output index.
     texture_by_file_index: BTreeMap<usize, u32>,
     textures: Vec<Texture>,
+    /// One line per material whose texture maps other than base colour are not used.
+    pub dropped_maps: Vec<String>,
 }
 
 impl<'a> Materials<'a> {
@@ -90,6 +92,7 @@ impl<'a> Materials<'a> {
             uv_sources: Vec::new(),
             texture_by_file_index: BTreeMap::new(),
             textures: Vec::new(),
+            dropped_maps: Vec::new(),
         }
     }
 
@@ -123,6 +126,22 @@ impl<'a> Materials<'a> {
             .get(index)
             .ok_or_else(|| input(format!("{what} does not exist")))?;
         let pbr = &material.pbr_metallic_roughness;
+        let dropped: Vec<&str> = [
+            ("metallic-roughness", pbr.metallic_roughness_texture.is_some()),
+            ("normal", material.normal_texture.is_some()),
+            ("occlusion", material.occlusion_texture.is_some()),
+            ("emissive", material.emissive_texture.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(map, present)| present.then_some(map))
+        .collect();
+        if !dropped.is_empty() {
+            let name = material.name.as_deref().map_or(String::new(), |n| format!(" ({n})"));
+            self.dropped_maps.push(format!(
+                "{what}{name}: {} texture map(s) ignored (only base colour is captured)",
+                dropped.join(", ")
+            ));
+        }
         let (base_color_texture, uv) = match &pbr.base_color_texture {
             None => (None, None),
             Some(info) => {

@@ -51,27 +51,27 @@ pub enum SimdSchedule {
 pub struct Thresholds {
     /// Diffuse refinement threshold: variation of N·L across the block's samples (§4.1;
     /// 0 = always, inf = never).
-    #[arg(long = "t-diffuse", default_value_t = DEFAULT_THRESHOLDS.diffuse)]
+    #[arg(long = "t-diffuse", default_value_t = DEFAULT_THRESHOLDS.diffuse, allow_negative_numbers = true)]
     #[serde(rename = "t_diffuse", serialize_with = "display")]
     pub diffuse: f32,
     /// Specular flatness threshold `1 - min(N_i · N_avg)` above which the reflection-cone
     /// test runs (§4.1; 0 = always refine, inf = never).
-    #[arg(long = "t-specular", default_value_t = DEFAULT_THRESHOLDS.specular)]
+    #[arg(long = "t-specular", default_value_t = DEFAULT_THRESHOLDS.specular, allow_negative_numbers = true)]
     #[serde(rename = "t_specular", serialize_with = "display")]
     pub specular: f32,
     /// Reflection-cone enlargement λ of the specular predicate: refine when
     /// `L · R_avg >= λ min(R_i · R_avg)`.
-    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.lambda)]
+    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.lambda, allow_negative_numbers = true)]
     #[serde(serialize_with = "display")]
     pub lambda: f32,
     /// Shadow occlusion-difference threshold across the block's samples (§4.2; 0 = always
     /// refine, inf = never).
-    #[arg(long = "t-shadow", default_value_t = DEFAULT_THRESHOLDS.shadow)]
+    #[arg(long = "t-shadow", default_value_t = DEFAULT_THRESHOLDS.shadow, allow_negative_numbers = true)]
     #[serde(rename = "t_shadow", serialize_with = "display")]
     pub shadow: f32,
     /// Edge-receiver threshold δ on the shadow map's negative second depth derivative (map
     /// depth units).
-    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.edge_delta)]
+    #[arg(long, default_value_t = DEFAULT_THRESHOLDS.edge_delta, allow_negative_numbers = true)]
     #[serde(serialize_with = "display")]
     pub edge_delta: f32,
 }
@@ -143,7 +143,7 @@ pub struct CacheConfig {
 #[derive(Clone, Copy, Debug, PartialEq, clap::Args, Serialize)]
 pub struct ReuseTest {
     /// Tile-pair reuse test: largest position difference, as a fraction of the eye distance.
-    #[arg(long = "reuse-position", default_value_t = DEFAULT_REUSE.position)]
+    #[arg(long = "reuse-position", default_value_t = DEFAULT_REUSE.position, allow_negative_numbers = true)]
     #[serde(
         rename = "reuse_position",
         serialize_with = "display",
@@ -151,7 +151,7 @@ pub struct ReuseTest {
     )]
     pub position: f32,
     /// Tile-pair reuse test: largest difference of unit normals.
-    #[arg(long = "reuse-normal", default_value_t = DEFAULT_REUSE.normal)]
+    #[arg(long = "reuse-normal", default_value_t = DEFAULT_REUSE.normal, allow_negative_numbers = true)]
     #[serde(
         rename = "reuse_normal",
         serialize_with = "display",
@@ -159,7 +159,7 @@ pub struct ReuseTest {
     )]
     pub normal: f32,
     /// Tile-pair reuse test: largest difference of R·L between the views (cross-view hits).
-    #[arg(long = "reuse-r-dot-l", default_value_t = DEFAULT_REUSE.r_dot_l)]
+    #[arg(long = "reuse-r-dot-l", default_value_t = DEFAULT_REUSE.r_dot_l, allow_negative_numbers = true)]
     #[serde(
         rename = "reuse_r_dot_l",
         serialize_with = "display",
@@ -217,7 +217,7 @@ pub struct MultirateOptions {
     #[serde(flatten)]
     pub thresholds: Thresholds,
     /// Multiplies the diffuse, specular and shadow thresholds (0 = refine all, inf = none).
-    #[arg(long, default_value_t = DEFAULT_MULTIRATE.threshold_scale)]
+    #[arg(long, default_value_t = DEFAULT_MULTIRATE.threshold_scale, allow_negative_numbers = true)]
     #[serde(serialize_with = "display")]
     pub threshold_scale: f32,
     /// Multi-rate SIMD schedule.
