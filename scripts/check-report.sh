@@ -25,4 +25,21 @@ if grep -Eq '(src|href)="https?://' "$out/index.html"; then
   echo "report references external resources" >&2
   exit 1
 fi
-echo "report renders: $out/screenshot.png ($size bytes)"
+# Every local link resolves (thumbnails link to full-size PNGs, tables to results.json).
+python3 - "$out" <<'PY'
+import os, re, sys
+out = sys.argv[1]
+html = open(os.path.join(out, "index.html")).read()
+links = [h for h in re.findall(r'href="([^"#][^"]*)"', html) if not h.startswith("data:")]
+broken = [h for h in links if not os.path.exists(os.path.join(out, h))]
+if broken:
+    sys.exit(f"{len(broken)} of {len(links)} links are broken, e.g. {broken[:3]}")
+print(f"{len(links)} links resolve")
+PY
+# The page stays small enough to open and mail: thumbnails, not full-size pictures.
+html_size=$(stat -c %s "$out/index.html")
+if [ "$html_size" -gt $((4 << 20)) ]; then
+  echo "index.html is $html_size bytes, more than 4 MiB" >&2
+  exit 1
+fi
+echo "report renders: $out/screenshot.png ($size bytes), index.html $html_size bytes"

@@ -115,6 +115,17 @@ impl Rgba8Image {
         Ok(bytes)
     }
 
+    /// The image as a JPEG at `quality` (1-100), alpha dropped: for thumbnails, where PNG's
+    /// exactness costs five times the bytes.
+    pub fn to_jpeg_bytes(&self, quality: u8) -> Result<Vec<u8>, String> {
+        let rgb: Vec<u8> = self.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+        let mut bytes = Vec::new();
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality)
+            .write_image(&rgb, self.width, self.height, ExtendedColorType::Rgb8)
+            .map_err(|e| e.to_string())?;
+        Ok(bytes)
+    }
+
     /// Writes the image as a PNG at `path`, atomically: the PNG is written to a temporary
     /// file in the same directory, flushed to disk and renamed over `path`, so a crash or
     /// an error never leaves a half-written PNG (and readers never see one).
@@ -170,6 +181,11 @@ pub fn robust_max(values: impl Iterator<Item = f32>) -> Option<f32> {
     v.sort_by(f32::total_cmp);
     Some(v[(v.len() - 1) * 99 / 100])
 }
+
+/// Top of the error pictures' scale, in 8-bit levels (larger errors saturate): fixed, so
+/// error pictures compare across presets and frames.
+pub const ERROR_SCALE: f32 = 32.0;
+pub const ERROR_LABEL: &str = "max channel error vs reference";
 
 /// A false-colour picture of per-pixel values (shading cost, refinement level, SSIM, ...)
 /// using the viridis colour map, which is perceptually uniform and readable by colour-blind

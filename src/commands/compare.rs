@@ -143,6 +143,7 @@ pub fn run(args: Args) -> Result<(), String> {
         runs: &runs,
         skipped: &skipped,
         files: String::new(),
+        pictures: args.images != ImageFrames::None,
     };
     let html = args.out.join("index.html");
     write_html(&html, &format!("shadetrace compare: {}", trace.name), &note, &[section])?;

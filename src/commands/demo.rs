@@ -76,6 +76,7 @@ pub fn run(args: Args) -> Result<(), String> {
             runs: &runs.runs,
             skipped: &runs.skipped,
             files: name.to_string(),
+            pictures: true,
         })
         .collect();
     let note = format!(

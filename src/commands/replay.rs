@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use shadetrace_formats::results::RunResult;
 use shadetrace_formats::results::{stage_names, traffic_names};
-use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image};
+use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE};
 use shadetrace_replay::scheme::Effects;
 use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, ReplayOptions, RunOutput, REFERENCE_PRESET};
 
@@ -117,9 +117,6 @@ pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
     })
 }
 
-/// Top of the error images' scale, in 8-bit levels (larger errors saturate).
-const ERROR_SCALE: f32 = 32.0;
-
 /// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map, the error
 /// against the reference when it ran and, for schemes that refine, one refinement map per
 /// effect; and the stereo pair. The pictures are made and encoded in parallel (each file
@@ -149,13 +146,7 @@ pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> 
                 Box::new(move || {
                     // A fixed scale, so error images compare across presets and frames.
                     let error: Vec<f32> = error.iter().map(|&e| f32::from(e)).collect();
-                    let map = heat_map(
-                        &error,
-                        width,
-                        height,
-                        Some(ERROR_SCALE),
-                        "max channel error vs reference",
-                    );
+                    let map = heat_map(&error, width, height, Some(ERROR_SCALE), ERROR_LABEL);
                     Cow::Owned(map)
                 }),
             ));

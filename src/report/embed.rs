@@ -1,14 +1,28 @@
-//! Pictures inside the report: PNG bytes as `data:` URIs (so the HTML needs no other file)
-//! and nearest-neighbour downscaling for when full-resolution images would make it huge.
+//! Pictures inside the report: PNG or JPEG bytes as `data:` URIs (so the HTML needs no
+//! other file) and the nearest-neighbour downscaling of its thumbnails.
 
 use shadetrace_replay::images::Rgba8Image;
 
 /// A PNG as a `data:` URI for an `<img src>`.
 pub fn png_data_uri(png: &[u8]) -> String {
+    data_uri("image/png", png)
+}
+
+/// JPEG quality of the rendered views' thumbnails: a fifth of their PNG size, which keeps a
+/// report of many presets and scenes small (heat maps, with their flat colours and legend,
+/// stay PNG: smaller so).
+const THUMBNAIL_JPEG_QUALITY: u8 = 80;
+
+/// An image as a JPEG `data:` URI (alpha dropped).
+pub fn jpeg_data_uri(image: &Rgba8Image) -> Result<String, String> {
+    Ok(data_uri("image/jpeg", &image.to_jpeg_bytes(THUMBNAIL_JPEG_QUALITY)?))
+}
+
+fn data_uri(media_type: &str, bytes: &[u8]) -> String {
     use base64::Engine;
     format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(png)
+        "data:{media_type};base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
     )
 }
 

@@ -9,16 +9,16 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use shadetrace_formats::results::{stage_names, traffic_names};
-use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image};
+use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE};
+use shadetrace_replay::run::{FrameImages, ViewImages};
 use shadetrace_replay::{LoadedTrace, RunOutput};
 
 use shadetrace_formats::atomic_file::write_atomically;
 
-/// Above this many bytes of embedded (base64) images the report switches to downscaled
-/// images, so browsers open it quickly.
-const MAX_EMBEDDED_BYTES: usize = 20 << 20;
-/// Widest view, in pixels, once the report downscales its images.
-const DOWNSCALED_VIEW_WIDTH: u32 = 640;
+/// Width, in pixels, of each view in the report's thumbnails (nearest neighbour), so that the
+/// page stays small however many presets and scenes it shows; the full-size pictures are
+/// files beside it.
+const THUMBNAIL_VIEW_WIDTH: u32 = 200;
 const HEAT_LABEL: &str = "issued instructions per pixel";
 
 /// What the report says about a trace, taken from its header.
@@ -54,6 +54,9 @@ pub struct ReportSection<'a> {
     /// Where this section's `summary.csv` and per-preset folders are, relative to the
     /// report ("" when beside it), for links.
     pub files: String,
+    /// The shown frame's full-size pictures were written to the preset folders (thumbnails
+    /// link to them).
+    pub pictures: bool,
 }
 
 /// Writes the report to `path` (atomically). `note` tells readers how the runs were
@@ -69,18 +72,10 @@ pub fn write_html(path: &Path, title: &str, note: &str, sections: &[ReportSectio
 
 /// The whole page as a string.
 fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String, String> {
-    let mut images = sections
+    let images = sections
         .iter()
-        .map(|s| SectionImages::encode(s.runs, None))
+        .map(|s| SectionImages::encode(s.runs, THUMBNAIL_VIEW_WIDTH))
         .collect::<Result<Vec<_>, _>>()?;
-    let full_size: usize = images.iter().map(SectionImages::embedded_bytes).sum();
-    let downscaled = full_size > MAX_EMBEDDED_BYTES;
-    if downscaled {
-        images = sections
-            .iter()
-            .map(|s| SectionImages::encode(s.runs, Some(DOWNSCALED_VIEW_WIDTH)))
-            .collect::<Result<Vec<_>, _>>()?;
-    }
 
     let mut h = String::new();
     let _ = write!(
@@ -90,13 +85,11 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String,
         escape(title),
         escape(note)
     );
-    if downscaled {
-        let _ = writeln!(
-            h,
-            "<p class=\"note\">Images in this report are downscaled (nearest neighbour) to at most {DOWNSCALED_VIEW_WIDTH} px \
-             wide per view to keep the file small; the full-resolution PNGs are in each preset's folder.</p>"
-        );
-    }
+    let _ = writeln!(
+        h,
+        "<p class=\"note\">Pictures are thumbnails, {THUMBNAIL_VIEW_WIDTH} px wide per view (nearest neighbour); \
+         where the full-size PNGs were written, a click opens them.</p>"
+    );
     if sections.len() > 1 {
         h.push_str("<nav>Traces:");
         for s in sections {
@@ -190,12 +183,37 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
 
     match &images.frame {
         Some(frame) => {
+            let link = |run: &RunOutput, picture: &str| {
+                section.pictures.then(|| {
+                    let file = format!("{}/frame{frame:04}-{picture}.png", run.result.preset);
+                    file_href(&section.files, &file)
+                })
+            };
             let _ = write!(
                 h,
                 "<h3>Frame {frame}: stereo images (left | right)</h3>\n<div class=\"grid\">"
             );
             for (run, uri) in section.runs.iter().zip(&images.stereo) {
-                figure(h, &run.result.preset, uri);
+                figure(h, &run.result.preset, uri, link(run, "stereo").as_deref());
+            }
+            let _ = write!(
+                h,
+                "</div>\n<h3>Frame {frame}: error against the reference (left | right)</h3>\n\
+                 <p>Per pixel the largest 8-bit channel difference from <code>forward</code>, on a fixed 0 to \
+                 {ERROR_SCALE} scale for every preset and frame (larger errors saturate).</p>\n\
+                 <div class=\"grid\">"
+            );
+            for (run, uri) in section.runs.iter().zip(&images.error) {
+                match uri {
+                    Some(uri) => figure(h, &run.result.preset, uri, link(run, "left-error").as_deref()),
+                    None => {
+                        let _ = write!(
+                            h,
+                            "<figure><figcaption>{}: not compared</figcaption></figure>",
+                            escape(&run.result.preset)
+                        );
+                    }
+                }
             }
             let _ = write!(
                 h,
@@ -206,7 +224,7 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
                 images.heat_max
             );
             for (run, uri) in section.runs.iter().zip(&images.heat) {
-                figure(h, &run.result.preset, uri);
+                figure(h, &run.result.preset, uri, link(run, "left-cost").as_deref());
             }
             h.push_str("</div>\n");
         }
@@ -287,12 +305,15 @@ fn render_table(h: &mut String, section: &ReportSection) {
     h.push_str("</tbody>\n</table>\n");
 }
 
-fn figure(h: &mut String, caption: &str, uri: &str) {
+/// A thumbnail with its caption, a link to the full-size picture when there is one.
+fn figure(h: &mut String, caption: &str, uri: &str, full_size: Option<&str>) {
     let caption = escape(caption);
-    let _ = write!(
-        h,
-        "<figure><img src=\"{uri}\" alt=\"{caption}\"><figcaption>{caption}</figcaption></figure>"
-    );
+    let img = format!("<img src=\"{uri}\" alt=\"{caption}\">");
+    let img = match full_size {
+        Some(href) => format!("<a href=\"{}\">{img}</a>", escape(href)),
+        None => img,
+    };
+    let _ = write!(h, "<figure>{img}<figcaption>{caption}</figcaption></figure>");
 }
 
 /// The first replayed frame's pictures of every run of a section, as `data:` URIs.
@@ -300,14 +321,16 @@ struct SectionImages {
     /// The frame shown; None when the runs replayed no frame.
     frame: Option<u32>,
     stereo: Vec<String>,
+    /// The error against the reference, for runs that were compared with it.
+    error: Vec<Option<String>>,
     heat: Vec<String>,
     /// Top of the common heat-map scale.
     heat_max: f32,
 }
 
 impl SectionImages {
-    /// Encodes the pictures, each view scaled down to at most `max_view_width` if given.
-    fn encode(runs: &[RunOutput], max_view_width: Option<u32>) -> Result<Self, String> {
+    /// Encodes the pictures, each view scaled down to at most `max_view_width`.
+    fn encode(runs: &[RunOutput], max_view_width: u32) -> Result<Self, String> {
         let firsts: Vec<_> = runs.iter().filter_map(|r| r.first_images.as_ref()).collect();
         let heat_max = robust_max(
             firsts
@@ -320,6 +343,7 @@ impl SectionImages {
         let mut images = SectionImages {
             frame: firsts.first().map(|f| f.frame),
             stereo: Vec::new(),
+            error: Vec::new(),
             heat: Vec::new(),
             heat_max,
         };
@@ -328,53 +352,53 @@ impl SectionImages {
             images.frame = None;
             return Ok(images);
         }
-        let shrink = |img: &Rgba8Image| match max_view_width {
-            Some(w) => embed::downscale(img, w),
-            None => img.clone(),
-        };
+        let shrink = |img: &Rgba8Image| embed::downscale(img, max_view_width);
         for frame in firsts {
             let [left, right] = &frame.views;
             let stereo = side_by_side(&shrink(&left.color), &shrink(&right.color));
-            images.stereo.push(embed::png_data_uri(&stereo.to_png_bytes()?));
-            let (values, width, height) = stereo_heat(frame, max_view_width);
+            images.stereo.push(embed::jpeg_data_uri(&stereo)?);
+            let per_view =
+                |values: &dyn Fn(&ViewImages) -> Option<Vec<u32>>| stereo_grid(frame, max_view_width, values);
+            let (values, width, height) = per_view(&|v| Some(v.cost_heat.clone())).ok_or("no cost map")?;
             let map = heat_map(&values, width, height, Some(heat_max), HEAT_LABEL);
             images.heat.push(embed::png_data_uri(&map.to_png_bytes()?));
+            let error = per_view(&|v| v.error.as_ref().map(|e| e.iter().map(|&x| u32::from(x)).collect()));
+            images.error.push(match error {
+                Some((values, width, height)) => {
+                    let map = heat_map(&values, width, height, Some(ERROR_SCALE), ERROR_LABEL);
+                    Some(embed::png_data_uri(&map.to_png_bytes()?))
+                }
+                None => None,
+            });
         }
         Ok(images)
     }
-
-    fn embedded_bytes(&self) -> usize {
-        self.stereo.iter().chain(&self.heat).map(String::len).sum()
-    }
 }
 
-/// The per-pixel cost of both views as one grid, left view then right view on each row
-/// (like `side_by_side`), so one heat map with one legend shows the pair.
-fn stereo_heat(frame: &shadetrace_replay::run::FrameImages, max_view_width: Option<u32>) -> (Vec<f32>, u32, u32) {
-    let views: Vec<(Vec<u32>, u32, u32)> = frame
-        .views
-        .iter()
-        .map(|v| {
-            let (w, h) = (v.color.width, v.color.height);
-            match max_view_width {
-                Some(max) => {
-                    let to = embed::fit_width(w, h, max);
-                    (embed::resample(&v.cost_heat, w, h, to, 0), to.0, to.1)
-                }
-                None => (v.cost_heat.clone(), w, h),
-            }
-        })
-        .collect();
+/// A per-pixel quantity of both views (`values`, None when a view has none) as one grid,
+/// left view then right view on each row (like `side_by_side`), each view scaled to at most
+/// `max_view_width`, so one heat map with one legend shows the pair.
+fn stereo_grid(
+    frame: &FrameImages,
+    max_view_width: u32,
+    values: &dyn Fn(&ViewImages) -> Option<Vec<u32>>,
+) -> Option<(Vec<f32>, u32, u32)> {
+    let mut views = Vec::new();
+    for v in &frame.views {
+        let (w, h) = (v.color.width, v.color.height);
+        let to = embed::fit_width(w, h, max_view_width);
+        views.push((embed::resample(&values(v)?, w, h, to, 0), to.0, to.1));
+    }
     let width = views.iter().map(|v| v.1).fold(0u32, u32::saturating_add);
     let height = views.iter().map(|v| v.2).max().unwrap_or(0);
-    let mut values = Vec::with_capacity(width as usize * height as usize);
+    let mut grid = Vec::with_capacity(width as usize * height as usize);
     for y in 0..height as usize {
         for (data, w, _) in &views {
             let w = *w as usize;
-            values.extend((0..w).map(|x| data.get(y * w + x).map_or(0.0, |&c| c as f32)));
+            grid.extend((0..w).map(|x| data.get(y * w + x).map_or(0.0, |&c| c as f32)));
         }
     }
-    (values, width, height)
+    Some((grid, width, height))
 }
 
 /// Text safe inside HTML and SVG elements and quoted attributes.
