@@ -198,3 +198,48 @@ fn compare_writes_the_pictures_of_the_frames_asked_for() {
     assert!(all.iter().any(|n| n.starts_with("frame0002-")));
     assert!(pictures("none").is_empty());
 }
+
+#[test]
+fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
+    let report = |images: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().to_str().unwrap();
+        let args = [
+            "compare",
+            "traces/floor.strace",
+            "--presets",
+            "sort-middle",
+            "--res",
+            "48x54",
+            "--frames",
+            "0",
+            "--images",
+            images,
+            "--out",
+            out,
+            "--quiet",
+        ];
+        let o = shadetrace(&args, None);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+        let links: Vec<String> = html
+            .split("<a href=\"")
+            .skip(1)
+            .filter_map(|rest| rest.split('"').next())
+            .filter(|href| href.ends_with(".png"))
+            .map(String::from)
+            .collect();
+        for link in &links {
+            assert!(dir.path().join(link).is_file(), "{link} is linked but not written");
+        }
+        (html, links)
+    };
+    let (html, links) = report("first");
+    assert!(
+        links.iter().any(|l| l == "sort-middle/frame0000-stereo.png"),
+        "{links:?}"
+    );
+    assert!(html.contains("error against the reference") && html.contains("data:image/jpeg;base64,"));
+    let (_, links) = report("none");
+    assert!(links.is_empty(), "no pictures written, none linked: {links:?}");
+}
