@@ -119,7 +119,7 @@ fn sweep_spans_refine_all_to_refine_none() {
     // A standalone SVG opens on its own only with its namespace.
     assert!(std::fs::read_to_string(dir.path().join("sweep.svg"))
         .unwrap()
-        .starts_with(r#"<svg xmlns="http://www.w3.org/2000/svg" "#));
+        .contains(r#"<svg xmlns="http://www.w3.org/2000/svg" "#));
 }
 
 /// With the reference run, each view gets an error image against it; without, none.
@@ -232,6 +232,13 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         for link in &links {
             assert!(dir.path().join(link).is_file(), "{link} is linked but not written");
         }
+        for figure in ["traffic.svg", "cost-quality.svg"] {
+            let svg = std::fs::read_to_string(dir.path().join(figure)).unwrap();
+            assert!(
+                svg.contains("<svg xmlns=\"http://www.w3.org/2000/svg\""),
+                "{figure} opens on its own"
+            );
+        }
         (html, links)
     };
     let (html, links) = report("first");
@@ -239,6 +246,10 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         links.iter().any(|l| l == "sort-middle/frame0000-stereo.png"),
         "{links:?}"
     );
+    // Every figure is also a standalone SVG beside the page, linked under it.
+    for figure in ["traffic.svg", "cost-quality.svg"] {
+        assert!(html.contains(&format!("<a href=\"{figure}\">")), "{figure} not linked");
+    }
     assert!(html.contains("error against the reference") && html.contains("data:image/jpeg;base64,"));
     let (_, links) = report("none");
     assert!(links.is_empty(), "no pictures written, none linked: {links:?}");

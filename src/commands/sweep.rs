@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions};
 
 use crate::progress;
-use crate::report::svg::cost_quality_scatter;
+use crate::report::svg::{cost_quality_scatter, standalone};
 use shadetrace_formats::atomic_file::write_atomically;
 
 #[derive(clap::Args)]
@@ -105,7 +105,7 @@ pub fn run(args: Args) -> Result<(), String> {
         .collect();
     // A file of its own needs the SVG namespace to open in a viewer or a document (inline in
     // the HTML report it is implied).
-    let svg = cost_quality_scatter(&points, true).replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1);
+    let svg = standalone(&cost_quality_scatter(&points, true));
     write_atomically(&args.out.join("sweep.svg"), |w| {
         w.write_all(svg.as_bytes()).map_err(|e| e.to_string())
     })?;

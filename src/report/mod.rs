@@ -13,7 +13,7 @@ use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image, 
 use shadetrace_replay::run::{FrameImages, ViewImages};
 use shadetrace_replay::{LoadedTrace, RunOutput};
 
-use shadetrace_formats::atomic_file::write_atomically;
+use shadetrace_formats::atomic_file::write_bytes_atomically;
 
 /// Width, in pixels, of each view in the report's thumbnails (nearest neighbour), so that the
 /// page stays small however many presets and scenes it shows; the full-size pictures are
@@ -61,17 +61,19 @@ pub struct ReportSection<'a> {
 
 /// Writes the report to `path` (atomically). `note` tells readers how the runs were
 /// reduced (resolution, frames) or that they were not.
+/// Each figure is also written as a standalone SVG beside the page (in the section's
+/// folder), ready for a paper; the page links to it under the figure.
 pub fn write_html(path: &Path, title: &str, note: &str, sections: &[ReportSection]) -> Result<(), String> {
-    let html = render(title, note, sections)?;
-    write_atomically(path, |w| {
-        use std::io::Write;
-        w.write_all(html.as_bytes())
-            .map_err(|e| format!("{}: {e}", path.display()))
-    })
+    let (html, figures) = render(title, note, sections)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    for (file, svg) in &figures {
+        write_bytes_atomically(&dir.join(file), svg::standalone(svg).as_bytes())?;
+    }
+    write_bytes_atomically(path, html.as_bytes())
 }
 
-/// The whole page as a string.
-fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String, String> {
+/// The whole page, and its figures as (file relative to the page, inline SVG).
+fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<(String, Vec<(String, String)>), String> {
     let images = sections
         .iter()
         .map(|s| SectionImages::encode(s.runs, THUMBNAIL_VIEW_WIDTH))
@@ -102,8 +104,9 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String,
         }
         h.push_str("</nav>\n");
     }
+    let mut figures = Vec::new();
     for (section, images) in sections.iter().zip(&images) {
-        render_section(&mut h, section, images);
+        render_section(&mut h, section, images, &mut figures);
     }
     let _ = write!(
         h,
@@ -113,10 +116,26 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<String,
          on-chip caches (ARCHITECTURE.md, Definitions).</footer>\n</body>\n</html>\n",
         env!("CARGO_PKG_VERSION")
     );
-    Ok(h)
+    Ok((h, figures))
 }
 
-fn render_section(h: &mut String, section: &ReportSection, images: &SectionImages) {
+/// Puts a plot on the page with a link to its standalone file, and records the file.
+fn plot(h: &mut String, section: &ReportSection, name: &str, svg: String, figures: &mut Vec<(String, String)>) {
+    let file = file_href(&section.files, &format!("{name}.svg"));
+    let _ = write!(
+        h,
+        "<figure>{svg}<figcaption><a href=\"{}\">{name}.svg</a></figcaption>",
+        escape(&file)
+    );
+    figures.push((file, svg));
+}
+
+fn render_section(
+    h: &mut String,
+    section: &ReportSection,
+    images: &SectionImages,
+    figures: &mut Vec<(String, String)>,
+) {
     let t = &section.trace;
     let _ = write!(
         h,
@@ -157,11 +176,9 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
             (run.result.preset.clone(), classes.iter().map(|c| tr.bytes(c)).collect())
         })
         .collect();
-    let _ = write!(
-        h,
-        "<h3>DRAM traffic per class</h3>\n<figure>{}</figure>\n",
-        svg::traffic_bars(&classes, &bars)
-    );
+    h.push_str("<h3>DRAM traffic per class</h3>\n");
+    plot(h, section, "traffic", svg::traffic_bars(&classes, &bars), figures);
+    h.push_str("</figure>\n");
 
     let points: Vec<(String, f64, f64)> = section
         .runs
@@ -171,13 +188,16 @@ fn render_section(h: &mut String, section: &ReportSection, images: &SectionImage
             Some((run.result.preset.clone(), 100.0 * t.relative_cost?, t.min_ssim?))
         })
         .collect();
-    let _ = write!(
+    h.push_str("<h3>Shading cost against quality</h3>\n");
+    plot(
         h,
-        "<h3>Shading cost against quality</h3>\n<figure>{}",
-        svg::cost_quality_scatter(&points, false)
+        section,
+        "cost-quality",
+        svg::cost_quality_scatter(&points, false),
+        figures,
     );
     if points.len() < section.runs.len() {
-        h.push_str("<figcaption>Runs without a relative cost or an SSIM (views smaller than the 11x11 SSIM window) are not plotted.</figcaption>");
+        h.push_str("<p class=\"note\">Runs without a relative cost or an SSIM (views smaller than the 11x11 SSIM window) are not plotted.</p>");
     }
     h.push_str("</figure>\n");
 
@@ -486,7 +506,8 @@ mod tests {
 
     #[test]
     fn empty_report_is_well_formed() {
-        let html = render("t <1>", "note & more", &[]).unwrap();
+        let (html, figures) = render("t <1>", "note & more", &[]).unwrap();
+        assert!(figures.is_empty());
         assert!(html.starts_with("<!DOCTYPE html>") && html.ends_with("</html>\n"));
         assert!(html.contains("t &lt;1&gt;") && html.contains("note &amp; more"));
         assert!(!html.contains("http://") && !html.contains("https://"));

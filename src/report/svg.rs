@@ -196,6 +196,15 @@ pub fn cost_quality_scatter(points: &[(String, f64, f64)], joined: bool) -> Stri
     s
 }
 
+/// A plot made for the page as a file of its own: with the SVG namespace (which HTML does not
+/// need, but a file opened alone or imported into a document does) and an XML declaration.
+pub fn standalone(svg: &str) -> String {
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{}\n",
+        svg.replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1)
+    )
+}
+
 fn svg_open(width: f64, height: f64, title: &str) -> String {
     format!(
         r#"<svg width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" role="img"><title>{}</title>"#,
