@@ -176,24 +176,41 @@ pub fn cost_quality_scatter(points: &[(String, f64, f64)], joined: bool) -> Stri
         );
     }
     for (i, (label, x, y)) in points.iter().enumerate() {
-        let (cx, cy, colour) = (px(*x), py(*y), class_colour(i));
-        let _ = write!(
-            s,
-            r##"<circle cx="{cx:.1}" cy="{cy:.1}" r="5" fill="{colour}" stroke="black"><title>{}: {x:.2}%, SSIM {y:.6}</title></circle>"##,
-            escape(label)
-        );
+        let title = format!("<title>{}: {x:.2}%, SSIM {y:.6}</title>", escape(label));
+        s.push_str(&marker(i, px(*x), py(*y), &title));
         // The legend: one row per point, in the margin right of the plot.
         let (lx, ly) = (left + plot_w + 16.0, top + 8.0 + 15.0 * i as f64);
+        s.push_str(&marker(i, lx, ly - 4.0, ""));
         let _ = write!(
             s,
-            r##"<circle cx="{lx:.1}" cy="{:.1}" r="5" fill="{colour}" stroke="black"/><text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
-            ly - 4.0,
+            r##"<text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
             lx + 10.0,
             escape(label)
         );
     }
     s.push_str("</svg>");
     s
+}
+
+/// The marker of the `i`-th point: its palette colour, and past each run through the
+/// palette another shape (circle, square, diamond), so that no two points look alike.
+fn marker(i: usize, x: f64, y: f64, inner: &str) -> String {
+    let colour = class_colour(i);
+    match (i / PALETTE.len()) % 3 {
+        0 => format!(r#"<circle cx="{x:.1}" cy="{y:.1}" r="5" fill="{colour}" stroke="black">{inner}</circle>"#),
+        1 => format!(
+            r#"<rect x="{:.1}" y="{:.1}" width="9" height="9" fill="{colour}" stroke="black">{inner}</rect>"#,
+            x - 4.5,
+            y - 4.5
+        ),
+        _ => format!(
+            r#"<polygon points="{x:.1},{:.1} {:.1},{y:.1} {x:.1},{:.1} {:.1},{y:.1}" fill="{colour}" stroke="black">{inner}</polygon>"#,
+            y - 6.0,
+            x + 6.0,
+            y + 6.0,
+            x - 6.0
+        ),
+    }
 }
 
 /// A plot made for the page as a file of its own: with the SVG namespace (which HTML does not
@@ -310,5 +327,10 @@ mod tests {
         }
         assert!(!svg.contains("<polyline"));
         assert!(cost_quality_scatter(&points, true).contains("<polyline"));
+        // Past the palette's eight colours, markers change shape: no two points look alike.
+        let many: Vec<(String, f64, f64)> = (0..10).map(|i| (format!("p{i}"), 10.0 * i as f64, 0.999)).collect();
+        let svg = cost_quality_scatter(&many, false);
+        assert_eq!(svg.matches("<circle").count(), 2 * 8);
+        assert_eq!(svg.matches(r#"width="9" height="9""#).count(), 2 * 2, "square markers");
     }
 }
