@@ -10,7 +10,8 @@
 //! - `pbrMetallicRoughness` base colour factor and texture (with KHR_texture_transform
 //!   baked into the UVs), alpha mode, double-sidedness, and a Phong approximation of
 //!   metallic/roughness ([`phong_from_metallic_roughness`]);
-//! - PNG and JPEG images as RGBA8, scaled down to [`ImportOptions::max_texture`];
+//! - PNG, JPEG and WebP images (WebP also through EXT_texture_webp) as RGBA8, scaled down
+//!   to [`ImportOptions::max_texture`]; other texture maps are dropped with a warning;
 //! - KHR_lights_punctual lights (at their pose at t = 0; the first directional light
 //!   casts shadows), perspective cameras, and translation/rotation/scale animation of
 //!   all animations played together, with linear-blend skinning.
@@ -18,7 +19,7 @@
 //! Skipped with a warning: points and lines, orthographic cameras, morph targets and
 //! weight animation, and extensions the file uses but does not require. A file that
 //! *requires* an extension this importer does not implement (Draco, meshopt,
-//! quantization, Basis, WebP, ...) is rejected, as are invalid data (NaN/Inf positions,
+//! quantization, Basis, ...) is rejected, as are invalid data (NaN/Inf positions,
 //! out-of-range indices, missing POSITION, dangling references) and missing files, each
 //! with one line naming the file and the problem.
 
@@ -56,7 +57,7 @@ pub struct ImportOptions {
 }
 
 /// Extensions whose effect the importer reproduces.
-const IMPLEMENTED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_texture_transform"];
+const IMPLEMENTED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_texture_transform", "EXT_texture_webp"];
 
 /// Extensions a file may require that change nothing shadetrace renders (its shader has no
 /// emissive term), so such a file imports as faithfully as one without them.

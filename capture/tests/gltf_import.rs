@@ -278,13 +278,26 @@ fn missing_image_file_is_named() {
 }
 
 #[test]
-fn non_png_jpeg_images_are_unsupported() {
+fn images_in_other_formats_are_unsupported() {
     let dir = tempfile::tempdir().unwrap();
-    let path = support::write_gltf_with_webp_texture(dir.path());
+    let path = support::write_gltf_with_bmp_texture(dir.path());
     let e = error_of(&path);
     assert!(matches!(e, Error::Unsupported { .. }), "{e:?}");
     let msg = e.to_string();
     assert!(msg.contains("image format") && msg.contains("texture 0"), "{msg}");
+}
+
+#[test]
+fn webp_textures_named_by_ext_texture_webp_decode() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&support::write_gltf_with_webp_texture(dir.path()));
+    let texture = &scene.scene.textures[0];
+    assert_eq!((texture.width, texture.height), (8, 4));
+    assert_eq!(
+        texture.rgba8,
+        support::checker_image().into_raw(),
+        "lossless WebP round trip"
+    );
 }
 
 #[test]

@@ -204,7 +204,17 @@ impl<'a> Materials<'a> {
             .textures
             .get(index)
             .ok_or_else(|| input(format!("{what} does not exist")))?;
-        let image_index = texture.source.value();
+        // EXT_texture_webp names the WebP image; `source`, if there is one, is a fallback.
+        let webp = texture
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("EXT_texture_webp"))
+            .and_then(|w| w.get("source"))
+            .and_then(|s| s.as_u64());
+        let image_index = match webp {
+            Some(i) => usize::try_from(i).unwrap_or(usize::MAX),
+            None => texture.source.value(),
+        };
         let image = self
             .root
             .images
@@ -245,7 +255,7 @@ impl<'a> Materials<'a> {
         Ok(t)
     }
 
-    /// Decodes a PNG or JPEG image to RGBA8 and scales it to the texture size cap.
+    /// Decodes a PNG, JPEG or WebP image to RGBA8 and scales it to the texture size cap.
     fn decode(&self, image: &json::Image, image_index: usize, texture: usize) -> Fallible<RgbaImage> {
         let what = format!("image {image_index}");
         let (bytes, data_uri_type): (Cow<[u8]>, Option<String>) = match (&image.buffer_view, &image.uri) {
@@ -269,11 +279,11 @@ impl<'a> Materials<'a> {
             .or(data_uri_type.as_deref());
         // The bytes decide: files often carry a wrong or missing mime type.
         let format = match image::guess_format(&bytes) {
-            Ok(format @ (ImageFormat::Png | ImageFormat::Jpeg)) => format,
+            Ok(format @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => format,
             Ok(other) => return Err(unsupported(format!("image format {other:?} in texture {texture}"))),
             Err(_) => {
                 return Err(match declared {
-                    Some(declared @ ("image/png" | "image/jpeg")) => {
+                    Some(declared @ ("image/png" | "image/jpeg" | "image/webp")) => {
                         input(format!("{what} of texture {texture} is declared {declared} but is not"))
                     }
                     Some(declared) => unsupported(format!("image format {declared} in texture {texture}")),

@@ -201,16 +201,34 @@ pub fn write_gltf_with_points(dir: &Path) -> PathBuf {
     write_json(dir, "points.gltf", &doc)
 }
 
-/// A textured triangle whose image is WebP (by magic bytes and mime type).
+/// A textured triangle whose base-colour image is [`checker_image`] as lossless WebP,
+/// named through `EXT_texture_webp` (required), in a `data:` URI.
 pub fn write_gltf_with_webp_texture(dir: &Path) -> PathBuf {
     let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], None);
-    let mut webp = b"RIFF\x1a\x00\x00\x00WEBPVP8L".to_vec();
-    webp.extend_from_slice(&[0; 14]);
+    let mut webp = Vec::new();
+    let image = checker_image();
+    image::codecs::webp::WebPEncoder::new_lossless(&mut webp)
+        .encode(&image, image.width(), image.height(), image::ExtendedColorType::Rgba8)
+        .expect("encode webp");
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+    doc["textures"] = json!([{ "extensions": { "EXT_texture_webp": { "source": 0 } } }]);
+    doc["images"] = json!([{ "uri": data_uri("image/webp", &webp) }]);
+    doc["extensionsUsed"] = json!(["EXT_texture_webp"]);
+    doc["extensionsRequired"] = json!(["EXT_texture_webp"]);
+    write_json(dir, "webp_texture.gltf", &doc)
+}
+
+/// A textured triangle whose image is a BMP (by magic bytes), a format capture does not read.
+pub fn write_gltf_with_bmp_texture(dir: &Path) -> PathBuf {
+    let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], None);
+    let mut bmp = b"BM".to_vec();
+    bmp.extend_from_slice(&[0; 60]);
     doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     doc["materials"] = json!([{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
     doc["textures"] = json!([{ "source": 0 }]);
-    doc["images"] = json!([{ "uri": data_uri("image/webp", &webp) }]);
-    write_json(dir, "webp_texture.gltf", &doc)
+    doc["images"] = json!([{ "uri": data_uri("image/bmp", &bmp) }]);
+    write_json(dir, "bmp_texture.gltf", &doc)
 }
 
 /// The 36 bytes of [`write_gltf_with_buffer_uri`]'s triangle (three `VEC3` floats).
