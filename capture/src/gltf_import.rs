@@ -18,8 +18,8 @@
 //!
 //! Skipped with a warning: points and lines, orthographic cameras, morph targets and
 //! weight animation, and extensions the file uses but does not require. A file that
-//! *requires* an extension this importer does not implement (Draco, meshopt,
-//! quantization, Basis, ...) is rejected, as are invalid data (NaN/Inf positions,
+//! *requires* an extension this importer does not implement (Draco, meshopt, Basis, ...)
+//! is rejected (KHR_mesh_quantization is implemented), as are invalid data (NaN/Inf positions,
 //! out-of-range indices, missing POSITION, dangling references) and missing files, each
 //! with one line naming the file and the problem.
 
@@ -57,7 +57,14 @@ pub struct ImportOptions {
 }
 
 /// Extensions whose effect the importer reproduces.
-const IMPLEMENTED_EXTENSIONS: &[&str] = &["KHR_lights_punctual", "KHR_texture_transform", "EXT_texture_webp"];
+/// KHR_mesh_quantization needs nothing more: every attribute is read through the spec's
+/// integer-to-float conversion, normalized or not, and node transforms dequantize.
+const IMPLEMENTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_texture_transform",
+    "EXT_texture_webp",
+    "KHR_mesh_quantization",
+];
 
 /// Extensions a file may require that change nothing shadetrace renders (its shader has no
 /// emissive term), so such a file imports as faithfully as one without them.

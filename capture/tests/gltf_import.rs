@@ -344,3 +344,17 @@ fn garbage_and_truncated_files_are_errors_not_panics() {
     .unwrap();
     assert_one_line_naming_file(&error_of(&path), &path);
 }
+
+#[test]
+fn quantized_attributes_decode_as_khr_mesh_quantization_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&support::write_quantized_gltf(dir.path()));
+    let mesh = &scene.scene.geometry.meshes[0];
+    let expected = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    for (p, e) in mesh.positions.iter().zip(expected) {
+        assert!(close(*p, e), "{p} != {e}");
+    }
+    assert!(mesh.normals.iter().all(|n| close(*n, Vec3::Z)), "{:?}", mesh.normals);
+    let uvs: Vec<[f32; 2]> = mesh.uvs.iter().map(|t| t.to_array()).collect();
+    assert_eq!(uvs, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+}

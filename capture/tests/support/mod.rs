@@ -231,6 +231,52 @@ pub fn write_gltf_with_bmp_texture(dir: &Path) -> PathBuf {
     write_json(dir, "bmp_texture.gltf", &doc)
 }
 
+/// One triangle stored as `KHR_mesh_quantization` allows (what gltfpack writes): unsigned
+/// 16-bit positions (0, 0, 0), (2, 0, 0), (0, 2, 0) under a node scaled by 0.5, normalized
+/// signed 8-bit normals (0, 0, 1) and normalized unsigned 16-bit UVs (0, 0), (1, 0), (0, 1)
+/// of the checker texture.
+pub fn write_quantized_gltf(dir: &Path) -> PathBuf {
+    const SIGNED_BYTE: u32 = 5120;
+    let mut bin = Bin::default();
+    let positions: Vec<u8> = [0u16, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect(); // VEC3 padded to 8 bytes per element
+    let position = bin.accessor(&positions, UNSIGNED_SHORT, 3, "VEC3");
+    bin.views[bin.accessors[position]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(8);
+    bin.accessors[position]["min"] = json!([0, 0, 0]);
+    bin.accessors[position]["max"] = json!([2, 2, 0]);
+    let normals: Vec<u8> = [0i8, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0]
+        .iter()
+        .map(|&v| v as u8)
+        .collect();
+    let normal = bin.accessor(&normals, SIGNED_BYTE, 3, "VEC3");
+    bin.views[bin.accessors[normal]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(4);
+    bin.accessors[normal]["normalized"] = json!(true);
+    let uvs: Vec<u8> = [0u16, 0, 65535, 0, 0, 65535]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let uv = bin.accessor(&uvs, UNSIGNED_SHORT, 3, "VEC2");
+    bin.accessors[uv]["normalized"] = json!(true);
+    let mut doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0, "scale": [0.5, 0.5, 0.5] }],
+        "meshes": [{ "primitives": [{
+            "attributes": { "POSITION": position, "NORMAL": normal, "TEXCOORD_0": uv },
+            "material": 0
+        }] }],
+        "materials": [{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": data_uri("image/png", &png_bytes(&checker_image())) }],
+        "extensionsUsed": ["KHR_mesh_quantization"],
+        "extensionsRequired": ["KHR_mesh_quantization"]
+    });
+    let uri = data_uri("application/octet-stream", &bin.bytes);
+    bin.finish(&mut doc, Some(uri));
+    write_json(dir, "quantized.gltf", &doc)
+}
+
 /// The 36 bytes of [`write_gltf_with_buffer_uri`]'s triangle (three `VEC3` floats).
 pub fn triangle_buffer() -> Vec<u8> {
     [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
