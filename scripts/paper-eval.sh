@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # The tile-pair paper's multi-rate comparison (Fig. 10/11), its disparity-order ablation
-# (Fig. 13) and He et al.'s coarse modes (Fig. 16) on the given traces, at the paper's
-# 1280x1440 per eye unless replay flags say otherwise: one markdown table per figure, the
-# paper's numbers beside ours. Table 1 / Fig. 7 are scripts/tile-pair-study.sh, Fig. 9 is
-# scripts/tessellation-study.sh. Traces of interior views (e.g. `capture LEVEL --path walk`)
-# are the papers' regime; say so beside any number you quote.
+# (Fig. 13), its binning lists (Table 1) and traffic per tile size (Fig. 7a), the shading
+# cost under tessellation (Fig. 9, on the built-in spheres) and He et al.'s coarse modes
+# (Fig. 16) on the given traces, at the paper's 1280x1440 per eye unless replay flags say
+# otherwise: one markdown table per figure, the paper's numbers or claims beside ours.
+# scripts/tile-pair-study.sh also sweeps texture-cache sizes (Fig. 7b) and
+# scripts/tessellation-study.sh all five subdivision levels. Traces of interior views (e.g.
+# `capture LEVEL --path walk`) are the papers' regime; say so beside any number you quote.
 # Usage: scripts/paper-eval.sh OUT TRACE... [-- replay flags, e.g. --frames 0..10]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,6 +25,17 @@ for trace in "${traces[@]}"; do
     --presets forward,he-2x2,he-4x4,he-dynamic,tile-pair-he,amfs,tile-pair
   "$bin" replay "$trace" --res 1280x1440 --frames 0 "$@" --quiet --no-images \
     --preset tile-pair --no-disparity-order --out "$out/$name/tile-pair-no-disparity-order"
+  # Table 1 and Fig. 7(a): lists and traffic per tile size (16 KB texture cache).
+  for tile in 8 16 32 64; do
+    "$bin" compare "$trace" --res 1280x1440 --frames 0 "$@" --quiet --images none --tile "$tile" \
+      --texture-cache-kb 16 --presets sort-middle,multiview,tile-pair-pp --out "$out/$name/tile$tile"
+  done
+done
+# Fig. 9: the spheres at three subdivision levels (2, 8 and 32 quads per patch edge).
+for level in 1 3 5; do
+  "$bin" capture "builtin:spheres?subdiv=$level" -o "$out/spheres-$level.strace" --frames 1 --quiet
+  "$bin" compare "$out/spheres-$level.strace" --res 1280x1440 --frames 0 "$@" --quiet --images none \
+    --presets forward,he-2x2,tile-pair-he,amfs,texel,tile-pair --out "$out/spheres-$level"
 done
 python3 - "$out" "${traces[@]}" <<'PY'
 import json, os, sys
@@ -73,6 +86,36 @@ for t in traces:
     cells = ["%.1f%%" % (100 * load(name, p)["total"]["relative_cost"]) for p in presets]
     cells += ["%.1f%%" % (100 * issued(load(name, p), "alu") / max(issued(reference, "alu"), 1)) for p in presets]
     lines.append(f"| {name} | " + " | ".join(cells) + " |")
+import csv
+def summary(path):
+    with open(path) as f:
+        return {row["preset"]: row for row in csv.DictReader(f)}
+lines += ["", "## Tile-pair paper Table 1: binning lists per tile size (tile-pair-pp)", "",
+          "Paper: tile pairs mostly under 1.5x the tiles; tile-pair lists (u16 entries) take 50-70% of the memory of tile lists (u32 entries).", "",
+          "| trace | tile | tile-list entries | KiB | tile-pair entries | KiB | pair / tile memory |", "|---|---|---|---|---|---|---|"]
+for t in traces:
+    name = os.path.basename(t).removesuffix(".strace")
+    for tile in [8, 16, 32, 64]:
+        r = summary(os.path.join(out, name, f"tile{tile}", "summary.csv"))["tile-pair-pp"]
+        tb, pb = int(r["tile_list_bytes"]), int(r["tile_pair_list_bytes"])
+        lines.append(f"| {name} | {tile} | {r['tile_list_entries']} | {tb / 1024:.1f} | {r['tile_pair_entries']} | {pb / 1024:.1f} | {100 * pb / max(tb, 1):.0f}% |")
+lines += ["", "## Tile-pair paper Fig. 7(a): DRAM traffic per tile size, 16 KB texture cache (MiB)", "",
+          "Paper (Arena): tile-pair scheduling has the least traffic at every tile size; sort-middle the least depth/colour, multiview the least texture.", "",
+          "| trace | tile | sort-middle | multiview | tile-pair-pp | least |", "|---|---|---|---|---|---|"]
+for t in traces:
+    name = os.path.basename(t).removesuffix(".strace")
+    for tile in [8, 16, 32, 64]:
+        rows = summary(os.path.join(out, name, f"tile{tile}", "summary.csv"))
+        mib = {p: int(rows[p]["total_bytes"]) / 2**20 for p in ["sort-middle", "multiview", "tile-pair-pp"]}
+        least = min(mib, key=mib.get)
+        lines.append(f"| {name} | {tile} | {mib['sort-middle']:.1f} | {mib['multiview']:.1f} | {mib['tile-pair-pp']:.1f} | {least} |")
+lines += ["", "## Tile-pair paper Fig. 9: relative shading cost under tessellation (built-in spheres)", "",
+          "Paper (Ogre, PN-triangle levels): tile-pair, AMFS and texel shading stay about flat as triangles shrink; He et al.'s cost rises.", "",
+          "| quads per patch edge | he-2x2 | tile-pair-he | amfs | texel | tile-pair |", "|---|---|---|---|---|---|"]
+for level in [1, 3, 5]:
+    rows = summary(os.path.join(out, f"spheres-{level}", "summary.csv"))
+    cells = ["%.1f%%" % float(rows[p]["relative_cost_pct"]) if p in rows else "-" for p in ["he-2x2", "tile-pair-he", "amfs", "texel", "tile-pair"]]
+    lines.append(f"| {1 << level} | " + " | ".join(cells) + " |")
 text = "\n".join(lines) + "\n"
 open(os.path.join(out, "paper-eval.md"), "w").write(text)
 print(text)
