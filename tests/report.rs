@@ -158,28 +158,35 @@ fn replay_writes_error_images_against_the_reference() {
     assert!(!without.join("frame0000-left-error.png").exists());
 }
 
+/// `compare` of sort-middle on the floor trace with `--images images` at 48x54 over
+/// `frames`, into a fresh directory.
+fn compare_floor(images: &str, frames: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let args = [
+        "compare",
+        "traces/floor.strace",
+        "--presets",
+        "sort-middle",
+        "--res",
+        "48x54",
+        "--frames",
+        frames,
+        "--images",
+        images,
+        "--out",
+        out,
+        "--quiet",
+    ];
+    let o = shadetrace(&args, None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    dir
+}
+
 #[test]
 fn compare_writes_the_pictures_of_the_frames_asked_for() {
     let pictures = |images: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().to_str().unwrap();
-        let args = [
-            "compare",
-            "traces/floor.strace",
-            "--presets",
-            "sort-middle",
-            "--res",
-            "32x36",
-            "--frames",
-            "1..3",
-            "--images",
-            images,
-            "--out",
-            out,
-            "--quiet",
-        ];
-        let o = shadetrace(&args, None);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let dir = compare_floor(images, "1..3");
         let mut names: Vec<String> = std::fs::read_dir(dir.path().join("sort-middle"))
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -202,25 +209,7 @@ fn compare_writes_the_pictures_of_the_frames_asked_for() {
 #[test]
 fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
     let report = |images: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let out = dir.path().to_str().unwrap();
-        let args = [
-            "compare",
-            "traces/floor.strace",
-            "--presets",
-            "sort-middle",
-            "--res",
-            "48x54",
-            "--frames",
-            "0",
-            "--images",
-            images,
-            "--out",
-            out,
-            "--quiet",
-        ];
-        let o = shadetrace(&args, None);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let dir = compare_floor(images, "0");
         let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
         let links: Vec<String> = html
             .split("<a href=\"")
