@@ -204,6 +204,16 @@ fn compare_writes_the_pictures_of_the_frames_asked_for() {
     assert_eq!(all.len(), 2 * first.len(), "{all:?}");
     assert!(all.iter().any(|n| n.starts_with("frame0002-")));
     assert!(pictures("none").is_empty());
+    // Over several frames the report plots the cost of each.
+    let dir = compare_floor("none", "1..3");
+    let svg = std::fs::read_to_string(dir.path().join("cost-per-frame.svg")).unwrap();
+    assert!(svg.contains("frame 2,") && svg.contains(">sort-middle</text>"), "{svg}");
+    let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+    assert!(html.contains("<a href=\"cost-per-frame.svg\">"));
+    assert!(
+        !compare_floor("none", "0").path().join("cost-per-frame.svg").exists(),
+        "one frame, no plot"
+    );
 }
 
 #[test]

@@ -93,7 +93,14 @@ pub fn run_presets(
         .iter()
         .map(|(p, _)| (dir.join(p.label()), p.scheme_info().reports_refinement))
         .collect();
-    for name in ["summary.csv", "frames.csv", "index.html"] {
+    for name in [
+        "summary.csv",
+        "frames.csv",
+        "index.html",
+        "traffic.svg",
+        "cost-quality.svg",
+        "cost-per-frame.svg",
+    ] {
         remove_if_present(&dir.join(name))?;
     }
     for (preset_dir, _) in &dirs {

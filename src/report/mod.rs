@@ -201,6 +201,29 @@ fn render_section(
     }
     h.push_str("</figure>\n");
 
+    // Over an animation: the cost of every frame, so that a frame that stands out shows.
+    let per_frame: Vec<(String, Vec<(u32, f64)>)> = section
+        .runs
+        .iter()
+        .map(|run| {
+            let r = &run.result;
+            let points = r
+                .frames
+                .iter()
+                .filter_map(|f| {
+                    let costs: Vec<f64> = f.views.iter().filter_map(|v| v.relative_cost).collect();
+                    (!costs.is_empty()).then(|| (f.frame, 100.0 * costs.iter().sum::<f64>() / costs.len() as f64))
+                })
+                .collect();
+            (r.preset.clone(), points)
+        })
+        .collect();
+    if section.runs.first().is_some_and(|r| r.result.frames.len() > 1) {
+        h.push_str("<h3>Shading cost per frame</h3>\n");
+        plot(h, section, "cost-per-frame", svg::cost_per_frame(&per_frame), figures);
+        h.push_str("<p class=\"note\">The mean of both views' relative cost; per frame and view numbers are in <code>frames.csv</code>.</p></figure>\n");
+    }
+
     match &images.frame {
         Some(frame) => {
             let link = |run: &RunOutput, picture: &str| {

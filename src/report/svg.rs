@@ -192,6 +192,80 @@ pub fn cost_quality_scatter(points: &[(String, f64, f64)], joined: bool) -> Stri
     s
 }
 
+/// Relative shading cost per frame: one line per run `(label, [(frame, cost %)])`, markers
+/// and legend as in the scatter plot, so a run's cost over an animation can be read at a
+/// glance (and a frame that stands out found).
+pub fn cost_per_frame(series: &[(String, Vec<(u32, f64)>)]) -> String {
+    let (width, height) = (600.0, 320.0);
+    let (left, right, top, bottom) = (60.0, 170.0, 16.0, 46.0);
+    let (plot_w, plot_h) = (width - left - right, height - top - bottom);
+    let values = || series.iter().flat_map(|(_, s)| s.iter()).filter(|p| p.1.is_finite());
+    let (f0, f1) = values().fold((u32::MAX, 0), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (f0, f1) = if f0 > f1 { (0, 1) } else { (f0, f1.max(f0 + 1)) };
+    let y_ticks = nice_ticks(0.0, values().map(|p| p.1).fold(1.0, f64::max) * 1.05, 5);
+    let y1 = *y_ticks.last().unwrap_or(&1.0);
+    let px = |f: u32| left + plot_w * f64::from(f - f0) / f64::from(f1 - f0);
+    let py = |c: f64| top + plot_h * (1.0 - c / y1.max(1e-12));
+
+    let mut s = svg_open(width, height, "relative shading cost per frame");
+    for &t in &y_ticks {
+        let y = py(t);
+        let _ = write!(
+            s,
+            r##"<line x1="{left}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" {FONT}>{}%</text>"##,
+            left + plot_w,
+            left - 6.0,
+            y + 4.0,
+            format_tick(t)
+        );
+    }
+    for t in nice_ticks(f64::from(f0), f64::from(f1), 6) {
+        if t.fract() != 0.0 || t < f64::from(f0) || t > f64::from(f1) {
+            continue;
+        }
+        let _ = write!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" {FONT}>{t}</text>"#,
+            px(t as u32),
+            top + plot_h + 16.0
+        );
+    }
+    let _ = write!(
+        s,
+        r#"<rect x="{left}" y="{top}" width="{plot_w}" height="{plot_h}" fill="none" stroke="black"/><text x="{:.1}" y="{:.1}" text-anchor="middle" {FONT}>frame</text><text transform="translate(14 {:.1}) rotate(-90)" text-anchor="middle" {FONT}>relative cost (% of forward, both views)</text>"#,
+        left + plot_w / 2.0,
+        height - 8.0,
+        top + plot_h / 2.0
+    );
+    for (i, (label, points)) in series.iter().enumerate() {
+        let points: Vec<&(u32, f64)> = points.iter().filter(|p| p.1.is_finite()).collect();
+        let path: Vec<String> = points
+            .iter()
+            .map(|p| format!("{:.1},{:.1}", px(p.0), py(p.1)))
+            .collect();
+        let _ = write!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"#,
+            path.join(" "),
+            class_colour(i)
+        );
+        for &&(f, c) in &points {
+            let title = format!("<title>{}: frame {f}, {c:.2}%</title>", escape(label));
+            s.push_str(&marker(i, px(f), py(c), &title));
+        }
+        let (lx, ly) = (left + plot_w + 16.0, top + 8.0 + 15.0 * i as f64);
+        s.push_str(&marker(i, lx, ly - 4.0, ""));
+        let _ = write!(
+            s,
+            r##"<text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
+            lx + 10.0,
+            escape(label)
+        );
+    }
+    s.push_str("</svg>");
+    s
+}
+
 /// The marker of the `i`-th point: its palette colour, and past each run through the
 /// palette another shape (circle, square, diamond), so that no two points look alike.
 fn marker(i: usize, x: f64, y: f64, inner: &str) -> String {
