@@ -226,7 +226,8 @@ pub fn run_frame(
     }
     clock.lap("memory");
     let [left, right] = views;
-    let views = [(0, left), (1, right)].map(|(v, setup)| match &made {
+    // The two views assemble independently, at once.
+    let assemble_view = |v: usize, setup: ViewSetup| match &made {
         Some((pass, made)) if pass.to as usize == v => {
             let mut view = assemble::view(
                 v,
@@ -240,7 +241,9 @@ pub fn run_frame(
             view
         }
         _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
-    });
+    };
+    let (left, right) = rayon::join(|| assemble_view(0, left), || assemble_view(1, right));
+    let views = [left, right];
     clock.lap("assemble");
     FrameOutput {
         views,
