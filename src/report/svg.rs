@@ -178,15 +178,7 @@ pub fn cost_quality_scatter(points: &[(String, f64, f64)], joined: bool) -> Stri
     for (i, (label, x, y)) in points.iter().enumerate() {
         let title = format!("<title>{}: {x:.2}%, SSIM {y:.6}</title>", escape(label));
         s.push_str(&marker(i, px(*x), py(*y), &title));
-        // The legend: one row per point, in the margin right of the plot.
-        let (lx, ly) = (left + plot_w + 16.0, top + 8.0 + 15.0 * i as f64);
-        s.push_str(&marker(i, lx, ly - 4.0, ""));
-        let _ = write!(
-            s,
-            r##"<text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
-            lx + 10.0,
-            escape(label)
-        );
+        legend_row(&mut s, i, left + plot_w + 16.0, top, label);
     }
     s.push_str("</svg>");
     s
@@ -253,17 +245,23 @@ pub fn cost_per_frame(series: &[(String, Vec<(u32, f64)>)]) -> String {
             let title = format!("<title>{}: frame {f}, {c:.2}%</title>", escape(label));
             s.push_str(&marker(i, px(f), py(c), &title));
         }
-        let (lx, ly) = (left + plot_w + 16.0, top + 8.0 + 15.0 * i as f64);
-        s.push_str(&marker(i, lx, ly - 4.0, ""));
-        let _ = write!(
-            s,
-            r##"<text x="{:.1}" y="{ly:.1}" {FONT}>{}</text>"##,
-            lx + 10.0,
-            escape(label)
-        );
+        legend_row(&mut s, i, left + plot_w + 16.0, top, label);
     }
     s.push_str("</svg>");
     s
+}
+
+/// Row `i` of a plot's legend, in the margin right of the plot (at `x`, below `top`): the
+/// series' marker and its label.
+fn legend_row(s: &mut String, i: usize, x: f64, top: f64, label: &str) {
+    let y = top + 8.0 + 15.0 * i as f64;
+    s.push_str(&marker(i, x, y - 4.0, ""));
+    let _ = write!(
+        s,
+        r##"<text x="{:.1}" y="{y:.1}" {FONT}>{}</text>"##,
+        x + 10.0,
+        escape(label)
+    );
 }
 
 /// The marker of the `i`-th point: its palette colour, and past each run through the
