@@ -1,18 +1,20 @@
 //! Progress for long work, on stderr: a bar on a terminal; where stderr is piped or logged
-//! (batch jobs, CI), a plain line every 10% with elapsed time and an estimate of what is
-//! left, once the work has run for [`QUIET_FOR`] (short runs and one-line errors stay
-//! clean). Nothing with `--quiet`.
+//! (batch jobs, CI), a plain line every 10% with where the work is (`frame 3/30, preset
+//! 5/11 (tile-pair)`), elapsed time and an estimate of what is left, once the work has run
+//! for [`QUIET_FOR`] (short runs and one-line errors stay clean). Nothing with `--quiet`.
 
 use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use shadetrace_replay::ReplayStep;
 
 /// Piped progress stays silent for this long.
 const QUIET_FOR: Duration = Duration::from_secs(5);
 
 pub struct Progress {
+    /// What the whole job is (`compare`, `scene 2/6 floor`).
     what: String,
     total: u64,
     started: Instant,
@@ -32,11 +34,11 @@ pub fn bar(total: u64, what: &str, quiet: bool) -> Progress {
     } else if std::io::stderr().is_terminal() {
         let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
         bar.set_style(
-            ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} {elapsed} (eta {eta})")
+            ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {elapsed} (eta {eta}) {msg}")
                 .expect("valid template")
                 .progress_chars("=> "),
         );
-        bar.set_message(what.to_string());
+        bar.set_prefix(what.to_string());
         Kind::Bar(bar)
     } else {
         Kind::Lines(Mutex::new(0))
@@ -49,17 +51,35 @@ pub fn bar(total: u64, what: &str, quiet: bool) -> Progress {
     }
 }
 
+/// A bar over every run of every frame of a [`replay_all`](shadetrace_replay::replay_all)
+/// of `runs` runs over `frames` frames.
+pub fn replay_bar(frames: u32, runs: usize, what: &str, quiet: bool) -> Progress {
+    bar(u64::from(frames) * runs as u64, what, quiet)
+}
+
 impl Progress {
+    /// Reports a replay's step (see [`replay_bar`]).
+    pub fn replay_step(&self, step: ReplayStep, frames: u32) {
+        self.set(step.units_done(), &step_label(step, frames));
+    }
+
     pub fn set_position(&self, done: u64) {
+        self.set(done, "");
+    }
+
+    fn set(&self, done: u64, step: &str) {
         match &self.kind {
             Kind::Hidden => {}
-            Kind::Bar(bar) => bar.set_position(done),
+            Kind::Bar(bar) => {
+                bar.set_position(done);
+                bar.set_message(step.to_string());
+            }
             Kind::Lines(last) => {
                 let tenth = (10 * done).checked_div(self.total).unwrap_or(10).min(10);
                 let mut last = last.lock().unwrap_or_else(|e| e.into_inner());
                 if tenth > *last && self.started.elapsed() >= QUIET_FOR {
                     *last = tenth;
-                    let _ = writeln!(std::io::stderr(), "{}", self.line(done));
+                    let _ = writeln!(std::io::stderr(), "{}", self.line(done, step));
                 }
             }
         }
@@ -71,16 +91,21 @@ impl Progress {
         }
     }
 
-    /// `what: done/total (pct), elapsed, eta` for a log line.
-    fn line(&self, done: u64) -> String {
+    /// `what: step, done/total (pct), elapsed, eta` for a log line.
+    fn line(&self, done: u64, step: &str) -> String {
         let elapsed = self.started.elapsed().as_secs_f64();
         let left = if done > 0 {
             elapsed * (self.total.saturating_sub(done)) as f64 / done as f64
         } else {
             0.0
         };
+        let step = if step.is_empty() {
+            String::new()
+        } else {
+            format!("{step}, ")
+        };
         format!(
-            "{}: {done}/{} ({:.0}%), {elapsed:.0} s, about {left:.0} s left",
+            "{}: {step}{done}/{} ({:.0}%), {elapsed:.0} s, about {left:.0} s left",
             self.what,
             self.total,
             100.0 * done as f64 / self.total.max(1) as f64
@@ -88,21 +113,40 @@ impl Progress {
     }
 }
 
+/// `frame 3/30, preset 5/11 (tile-pair)`: the frame being replayed and the presets done in it.
+fn step_label(step: ReplayStep, frames: u32) -> String {
+    let frame = (step.frames_done + 1).min(frames.max(1));
+    format!(
+        "frame {frame}/{frames}, preset {}/{} ({})",
+        step.runs_done, step.runs, step.preset
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn log_lines_say_how_far_and_how_long() {
+    fn log_lines_say_where_how_far_and_how_long() {
         let p = Progress {
-            what: "frames".into(),
+            what: "scene 2/6 floor".into(),
             total: 30,
             started: Instant::now(),
             kind: Kind::Hidden,
         };
-        let line = p.line(3);
-        assert!(line.starts_with("frames: 3/30 (10%), "), "{line}");
+        let step = ReplayStep {
+            frames_done: 1,
+            runs_done: 1,
+            runs: 10,
+            preset: "amfs",
+        };
+        assert_eq!(step.units_done(), 11);
+        let line = p.line(3, &step_label(step, 3));
+        assert!(
+            line.starts_with("scene 2/6 floor: frame 2/3, preset 1/10 (amfs), 3/30 (10%), "),
+            "{line}"
+        );
         assert!(line.ends_with(" s left"), "{line}");
-        assert!(p.line(0).contains("0/30 (0%)"));
+        assert!(p.line(0, "").contains(": 0/30 (0%)"));
     }
 }

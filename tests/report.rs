@@ -116,10 +116,10 @@ fn sweep_spans_refine_all_to_refine_none() {
         rows[0][1] > rows[1][1] && rows[1][1] > rows[2][1],
         "cost falls as thresholds rise: {rows:?}"
     );
-    // A standalone SVG opens on its own only with its namespace.
-    assert!(std::fs::read_to_string(dir.path().join("sweep.svg"))
-        .unwrap()
-        .contains(r#"<svg xmlns="http://www.w3.org/2000/svg" "#));
+    // A standalone SVG opens on its own only with its namespace; the PNG is twice its size.
+    let svg = std::fs::read_to_string(dir.path().join("sweep.svg")).unwrap();
+    assert!(svg.contains(r#"xmlns="http://www.w3.org/2000/svg""#) && svg.contains(">\nx1\n</text>"));
+    assert_eq!(image::open(dir.path().join("sweep.png")).unwrap().width(), 2 * 640);
 }
 
 /// With the reference run, each view gets an error image against it; without, none.
@@ -204,14 +204,17 @@ fn compare_writes_the_pictures_of_the_frames_asked_for() {
     assert_eq!(all.len(), 2 * first.len(), "{all:?}");
     assert!(all.iter().any(|n| n.starts_with("frame0002-")));
     assert!(pictures("none").is_empty());
-    // Over several frames the report plots the cost of each.
+    // Over several frames the report plots the cost and quality of each.
     let dir = compare_floor("none", "1..3");
-    let svg = std::fs::read_to_string(dir.path().join("cost-per-frame.svg")).unwrap();
-    assert!(svg.contains("frame 2,") && svg.contains(">sort-middle</text>"), "{svg}");
-    let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
-    assert!(html.contains("<a href=\"cost-per-frame.svg\">"));
+    let svg = std::fs::read_to_string(dir.path().join("per-frame.svg")).unwrap();
     assert!(
-        !compare_floor("none", "0").path().join("cost-per-frame.svg").exists(),
+        svg.contains(">\nframe\n</text>") && svg.contains(">\nsort-middle\n</text>"),
+        "{svg}"
+    );
+    let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+    assert!(html.contains("<a href=\"per-frame.svg\">") && html.contains("<a href=\"per-frame.png\">"));
+    assert!(
+        !compare_floor("none", "0").path().join("per-frame.svg").exists(),
         "one frame, no plot"
     );
 }
@@ -231,12 +234,13 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         for link in &links {
             assert!(dir.path().join(link).is_file(), "{link} is linked but not written");
         }
-        for figure in ["traffic.svg", "cost-quality.svg"] {
-            let svg = std::fs::read_to_string(dir.path().join(figure)).unwrap();
+        for figure in ["traffic", "cost-quality"] {
+            let svg = std::fs::read_to_string(dir.path().join(format!("{figure}.svg"))).unwrap();
             assert!(
-                svg.contains("<svg xmlns=\"http://www.w3.org/2000/svg\""),
-                "{figure} opens on its own"
+                svg.starts_with("<?xml") && svg.contains("xmlns=\"http://www.w3.org/2000/svg\""),
+                "{figure}.svg opens on its own"
             );
+            assert!(image::open(dir.path().join(format!("{figure}.png"))).is_ok());
         }
         (html, links)
     };
@@ -245,11 +249,19 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         links.iter().any(|l| l == "sort-middle/frame0000-stereo.png"),
         "{links:?}"
     );
-    // Every figure is also a standalone SVG beside the page, linked under it.
-    for figure in ["traffic.svg", "cost-quality.svg"] {
+    // Every figure is also a standalone SVG and PNG beside the page, linked under it.
+    for figure in ["traffic.svg", "traffic.png", "cost-quality.svg", "cost-quality.png"] {
         assert!(html.contains(&format!("<a href=\"{figure}\">")), "{figure} not linked");
     }
     assert!(html.contains("error against the reference") && html.contains("data:image/jpeg;base64,"));
+    assert!(html.contains("SSIM loss against the reference") && html.contains("Pareto front"));
+    assert!(
+        links.iter().any(|l| l == "sort-middle/frame0000-left-ssim.png"),
+        "the SSIM map links to its file: {links:?}"
+    );
     let (_, links) = report("none");
-    assert!(links.is_empty(), "no pictures written, none linked: {links:?}");
+    assert!(
+        links.iter().all(|l| !l.contains('/')),
+        "no pictures written, only the figures beside the page linked: {links:?}"
+    );
 }

@@ -186,6 +186,10 @@ pub fn robust_max(values: impl Iterator<Item = f32>) -> Option<f32> {
 /// error pictures compare across presets and frames.
 pub const ERROR_SCALE: f32 = 32.0;
 pub const ERROR_LABEL: &str = "max channel error vs reference";
+/// Top of the SSIM-loss pictures' scale (`1 - SSIM` of each pixel's 11x11 window; larger
+/// losses saturate), fixed for the same reason.
+pub const SSIM_LOSS_SCALE: f32 = 0.1;
+pub const SSIM_LOSS_LABEL: &str = "1 - local SSIM vs reference";
 
 /// A false-colour picture of per-pixel values (shading cost, refinement level, SSIM, ...)
 /// using the viridis colour map, which is perceptually uniform and readable by colour-blind

@@ -27,4 +27,4 @@ pub mod vertex_stage;
 
 pub use options::ReplayOptions;
 pub use preset::{Preset, PRESETS, REFERENCE_PRESET};
-pub use run::{load_trace, replay_all, FrameImages, ImageSink, LoadedTrace, RunOutput};
+pub use run::{load_trace, replay_all, FrameImages, ImageSink, LoadedTrace, ReplayStep, RunOutput};

@@ -298,6 +298,16 @@ pub fn error_map(reference: &Rgba8Image, test: &Rgba8Image) -> Vec<u8> {
 /// differ in size, have no pixels, or have a pixel buffer (or mask) that is not
 /// `width * height` long.
 pub fn compare(reference: &Rgba8Image, test: &Rgba8Image, covered: &[bool]) -> Result<Quality, String> {
+    compare_with_map(reference, test, covered).map(|(quality, _)| quality)
+}
+
+/// [`compare`], and the per-pixel SSIM map it averaged (None where the views are smaller
+/// than the SSIM window), for pictures of where the loss is.
+pub fn compare_with_map(
+    reference: &Rgba8Image,
+    test: &Rgba8Image,
+    covered: &[bool],
+) -> Result<(Quality, Option<Vec<f64>>), String> {
     if (reference.width, reference.height) != (test.width, test.height) {
         return Err(format!(
             "cannot compare a {}x{} image with a {}x{} reference",
@@ -322,12 +332,13 @@ pub fn compare(reference: &Rgba8Image, test: &Rgba8Image, covered: &[bool]) -> R
     }
     let (w, h) = (reference.width, reference.height);
     let map = ssim_map(&luma(reference), &luma(test), w, h);
-    Ok(Quality {
+    let quality = Quality {
         ssim: map.as_ref().map(|m| mean_of_valid(m, w, h)),
         ssim_covered: map.as_ref().and_then(|m| mean_of_covered(m, covered, w, h)),
         psnr_db: psnr_for_report(reference, test),
         max_abs_error: max_abs_error(reference, test),
-    })
+    };
+    Ok((quality, map))
 }
 
 #[cfg(test)]

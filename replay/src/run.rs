@@ -64,6 +64,9 @@ pub struct ViewImages {
     pub refinement: Vec<u8>,
     /// Per pixel, the largest 8-bit channel difference from the reference (when it ran).
     pub error: Option<Vec<u8>>,
+    /// Per pixel, `1 - SSIM` of its window against the reference (when it ran and the view
+    /// is at least as large as the SSIM window).
+    pub ssim_loss: Option<Vec<f32>>,
 }
 
 pub struct FrameImages {
@@ -81,17 +84,34 @@ pub struct RunOutput {
 /// Called with (run index, images) for every frame of every run, in frame order.
 pub type ImageSink<'a> = dyn FnMut(usize, &FrameImages) -> Result<(), String> + 'a;
 
+/// Where a [`replay_all`] has got to: `frames_done` whole frames, then `runs_done` of the
+/// `runs` runs of the next one, the last of them `preset`.
+#[derive(Clone, Copy, Debug)]
+pub struct ReplayStep<'a> {
+    pub frames_done: u32,
+    pub runs_done: usize,
+    pub runs: usize,
+    pub preset: &'a str,
+}
+
+impl ReplayStep<'_> {
+    /// Runs of single frames done so far.
+    pub fn units_done(&self) -> u64 {
+        u64::from(self.frames_done) * self.runs as u64 + self.runs_done as u64
+    }
+}
+
 /// Replays `trace` with each `(preset, options)` of `runs`, frame by frame in lockstep with
 /// the reference (`forward` under `reference` options, when given) so that relative cost and
 /// quality are measured per frame while only one frame's images are alive. A run of the
 /// reference preset itself is compared against the reference run (two replays, not three).
-/// `progress` gets the number of frames done.
+/// `progress` hears after every run of every frame.
 pub fn replay_all(
     trace: &LoadedTrace,
     runs: &[(Preset, ReplayOptions)],
     reference: Option<&ReplayOptions>,
     sink: &mut ImageSink,
-    progress: &mut dyn FnMut(u32),
+    progress: &mut dyn FnMut(ReplayStep),
 ) -> Result<Vec<RunOutput>, String> {
     let mut replays = runs
         .iter()
@@ -133,14 +153,20 @@ pub fn replay_all(
             }
             None => None,
         };
+        let count = replays.len();
         for (i, replay) in replays.iter_mut().enumerate() {
             let images = replay.frame(trace, index, reference_frame.as_ref())?;
             let writing = Instant::now();
             sink(i, &images)?;
             *replay.stages.entry("images").or_default() += writing.elapsed();
             replay.first_images.get_or_insert(images);
+            progress(ReplayStep {
+                frames_done: done as u32,
+                runs_done: i + 1,
+                runs: count,
+                preset: &replay.preset.label(),
+            });
         }
-        progress(done as u32 + 1);
     }
     let reference_issued = reference.map(|r| r.total.cost.issued());
     Ok(replays.into_iter().map(|r| r.finish(trace, reference_issued)).collect())
@@ -248,19 +274,17 @@ impl Replay {
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
                     let reference = &r.images.views[v].color;
                     let error = quality::error_map(reference, color);
-                    Ok((
-                        rel,
-                        Some(quality::compare(reference, color, &r.covered[v])?),
-                        Some(error),
-                    ))
+                    let (quality, ssim) = quality::compare_with_map(reference, color, &r.covered[v])?;
+                    let ssim_loss = ssim.map(|m| m.iter().map(|&s| (1.0 - s) as f32).collect());
+                    Ok((rel, Some(quality), Some(error), ssim_loss))
                 }
-                None => Ok((None, None, None)),
+                None => Ok((None, None, None, None)),
             })
             .collect();
         for (v, ((view, color), compared)) in views_out.into_iter().zip(compared).enumerate() {
             self.size = (view.width, view.height);
             self.pixels += (view.width * view.height) as u64;
-            let (relative_cost, quality, error) = compared?;
+            let (relative_cost, quality, error, ssim_loss) = compared?;
             self.total.cost.add(&view.cost);
             self.total.shaded_pixels += view.raster.fragments_shaded;
             if let Some(q) = quality.and_then(|q| q.ssim) {
@@ -293,6 +317,7 @@ impl Replay {
                 cost_heat: view.cost_heat,
                 refinement: view.refinement,
                 error,
+                ssim_loss,
             });
         }
         self.total.traffic.add(&out.traffic);

@@ -10,7 +10,7 @@ use shadetrace_replay::{
 use super::replay::{clear_previous_run, remove_if_present, write_frame_images, write_results};
 use super::summary;
 use crate::progress;
-use crate::report::{write_html, ReportSection, TraceSummary};
+use crate::report::{self, write_html, ReportSection, TraceSummary};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -67,13 +67,14 @@ pub struct PresetRuns {
 
 /// Runs every preset on `trace` against the reference, frame by frame, and writes
 /// per-preset images and results and `summary.csv` into `dir`. Presets the trace cannot run
-/// are reported and left out.
+/// are reported and left out. `what` names the job in progress lines.
 pub fn run_presets(
     trace: &LoadedTrace,
     presets: &[Preset],
     opts: &ReplayOptions,
     dir: &Path,
     images: ImageFrames,
+    what: &str,
     quiet: bool,
 ) -> Result<PresetRuns, String> {
     let mut runnable = Vec::new();
@@ -93,14 +94,14 @@ pub fn run_presets(
         .iter()
         .map(|(p, _)| (dir.join(p.label()), p.scheme_info().reports_refinement))
         .collect();
-    for name in [
-        "summary.csv",
-        "frames.csv",
-        "index.html",
-        "traffic.svg",
-        "cost-quality.svg",
-        "cost-per-frame.svg",
-    ] {
+    let figures = report::FIGURES
+        .iter()
+        .flat_map(|f| [format!("{f}.svg"), format!("{f}.png")]);
+    for name in ["summary.csv", "frames.csv", "index.html"]
+        .map(String::from)
+        .into_iter()
+        .chain(figures)
+    {
         remove_if_present(&dir.join(name))?;
     }
     for (preset_dir, _) in &dirs {
@@ -109,7 +110,7 @@ pub fn run_presets(
     }
     let frames = opts.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
     let first = opts.frames.map_or(0, |(a, _)| a);
-    let bar = progress::bar(frames as u64, &format!("frames x {} presets", runnable.len()), quiet);
+    let bar = progress::replay_bar(frames, runnable.len(), what, quiet);
     let runs = replay_all(
         trace,
         &runnable,
@@ -119,7 +120,7 @@ pub fn run_presets(
             ImageFrames::First if pictures.frame == first => write_frame_images(&dirs[i].0, pictures, dirs[i].1),
             _ => Ok(()),
         },
-        &mut |d| bar.set_position(d as u64),
+        &mut |step| bar.replay_step(step, frames),
     )?;
     bar.finish_and_clear();
     for (run, (preset_dir, _)) in runs.iter().zip(&dirs) {
@@ -137,7 +138,8 @@ pub fn run(args: Args) -> Result<(), String> {
     opts.check()?;
     let trace = load_trace(&args.trace)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    let PresetRuns { runs, skipped } = run_presets(&trace, &presets, &opts, &args.out, args.images, args.quiet)?;
+    let PresetRuns { runs, skipped } =
+        run_presets(&trace, &presets, &opts, &args.out, args.images, &trace.name, args.quiet)?;
     let note = match opts.resolution {
         Some((w, h)) => format!(
             "Replayed at {w}x{h} per eye (the trace was captured at {}x{}).",

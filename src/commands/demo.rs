@@ -40,7 +40,7 @@ pub fn run(args: Args) -> Result<(), String> {
     };
     let mut all_runs = Vec::new();
     let mut traces = Vec::new();
-    for (name, _) in BUILTIN_SCENES {
+    for (scene, (name, _)) in BUILTIN_SCENES.iter().enumerate() {
         let captured = capture(
             &Input::Builtin(name.to_string()),
             &CaptureOptions::default(),
@@ -57,10 +57,12 @@ pub fn run(args: Args) -> Result<(), String> {
         let trace = load_trace(&path)?;
         let dir = args.out.join(name);
         std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        // One plain line per scene on stdout, with a terminal or without.
+        let what = format!("scene {}/{} {name}", scene + 1, BUILTIN_SCENES.len());
         if !args.quiet {
-            println!("== {name}");
+            println!("== {what} ({} presets)", presets.len());
         }
-        let runs = run_presets(&trace, &presets, &opts, &dir, ImageFrames::First, args.quiet)?;
+        let runs = run_presets(&trace, &presets, &opts, &dir, ImageFrames::First, &what, args.quiet)?;
         if !args.quiet {
             let results: Vec<_> = runs.runs.iter().map(|r| &r.result).collect();
             println!("{}", summary::table(&results).trim_end());

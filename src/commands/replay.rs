@@ -7,7 +7,9 @@ use rayon::prelude::*;
 
 use shadetrace_formats::results::RunResult;
 use shadetrace_formats::results::{stage_names, traffic_names};
-use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE};
+use shadetrace_replay::images::{
+    heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE, SSIM_LOSS_LABEL, SSIM_LOSS_SCALE,
+};
 use shadetrace_replay::scheme::Effects;
 use shadetrace_replay::{load_trace, replay_all, FrameImages, Preset, ReplayOptions, RunOutput, REFERENCE_PRESET};
 
@@ -47,7 +49,7 @@ pub fn run(args: Args) -> Result<(), String> {
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     clear_previous_run(&args.out)?;
     let refinement = preset.scheme_info().reports_refinement;
-    let bar = progress::bar(frames as u64, "frames", args.quiet);
+    let bar = progress::replay_bar(frames, 1, "replay", args.quiet);
     let started = std::time::Instant::now();
     let mut runs = replay_all(
         &trace,
@@ -57,7 +59,7 @@ pub fn run(args: Args) -> Result<(), String> {
             true => Ok(()),
             false => write_frame_images(&args.out, images, refinement),
         },
-        &mut |d| bar.set_position(d as u64),
+        &mut |step| bar.replay_step(step, frames),
     )?;
     bar.finish_and_clear();
     let output = runs.pop().ok_or("no run")?;
@@ -118,8 +120,8 @@ pub fn write_results(dir: &Path, result: &RunResult) -> Result<(), String> {
 }
 
 /// Writes one frame's pictures into `dir`: per eye the colour, the cost heat map, the error
-/// against the reference when it ran and, for schemes that refine, one refinement map per
-/// effect; and the stereo pair. The pictures are made and encoded in parallel (each file
+/// and SSIM-loss maps against the reference when it ran and, for schemes that refine, one
+/// refinement map per effect; and the stereo pair. The pictures are made and encoded in parallel (each file
 /// is the same whatever the order).
 pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> Result<(), String> {
     let stem = format!("frame{:04}", frame.frame);
@@ -149,6 +151,12 @@ pub fn write_frame_images(dir: &Path, frame: &FrameImages, refinement: bool) -> 
                     let map = heat_map(&error, width, height, Some(ERROR_SCALE), ERROR_LABEL);
                     Cow::Owned(map)
                 }),
+            ));
+        }
+        if let Some(loss) = &view.ssim_loss {
+            pictures.push((
+                format!("{stem}-{eye}-ssim.png"),
+                Box::new(move || Cow::Owned(heat_map(loss, width, height, Some(SSIM_LOSS_SCALE), SSIM_LOSS_LABEL))),
             ));
         }
         if refinement {

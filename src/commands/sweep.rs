@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use shadetrace_replay::{load_trace, replay_all, Preset, ReplayOptions};
 
 use crate::progress;
-use crate::report::svg::{cost_quality_scatter, standalone};
-use shadetrace_formats::atomic_file::write_atomically;
+use crate::report::figure::{self, CostQuality};
+use shadetrace_formats::atomic_file::{write_atomically, write_bytes_atomically};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -23,7 +23,7 @@ pub struct Args {
     scales: Vec<f32>,
     #[command(flatten)]
     replay: ReplayOptions,
-    /// Output directory for sweep.csv and sweep.svg.
+    /// Output directory for sweep.csv, sweep.svg and sweep.png.
     #[arg(long, default_value = "sweep-out")]
     out: PathBuf,
     /// No progress bar.
@@ -52,9 +52,9 @@ pub fn run(args: Args) -> Result<(), String> {
         })
         .collect();
     let frames = base.frames.map_or(trace.frames.len() as u32, |(a, b)| b - a);
-    let bar = progress::bar(frames as u64, &format!("frames x {} scales", runs.len()), args.quiet);
-    let outs = replay_all(&trace, &runs, Some(&base), &mut |_, _| Ok(()), &mut |d| {
-        bar.set_position(d as u64)
+    let bar = progress::replay_bar(frames, runs.len(), "sweep", args.quiet);
+    let outs = replay_all(&trace, &runs, Some(&base), &mut |_, _| Ok(()), &mut |step| {
+        bar.replay_step(step, frames)
     })?;
     bar.finish_and_clear();
     let mut rows = Vec::new();
@@ -103,14 +103,17 @@ pub fn run(args: Args) -> Result<(), String> {
         .iter()
         .map(|&(scale, cost, ssim, _)| (format!("x{scale}"), 100.0 * cost, ssim))
         .collect();
-    // A file of its own needs the SVG namespace to open in a viewer or a document (inline in
-    // the HTML report it is implied).
-    let svg = standalone(&cost_quality_scatter(&points, true));
-    write_atomically(&args.out.join("sweep.svg"), |w| {
-        w.write_all(svg.as_bytes()).map_err(|e| e.to_string())
+    let plot = figure::render(&CostQuality {
+        points: &points,
+        joined: true,
     })?;
+    write_bytes_atomically(&args.out.join("sweep.svg"), plot.svg.as_bytes())?;
+    write_bytes_atomically(&args.out.join("sweep.png"), &plot.png)?;
     if !args.quiet {
-        println!("wrote {} and sweep.svg", args.out.join("sweep.csv").display());
+        println!(
+            "wrote {}, sweep.svg and sweep.png",
+            args.out.join("sweep.csv").display()
+        );
     }
     Ok(())
 }

@@ -1,15 +1,17 @@
 //! The self-contained HTML report of `compare` and `demo`: one file with inline CSS, inline
-//! SVG plots and images embedded as `data:` URIs, so it can be mailed, archived or opened
-//! offline without the files beside it. No JavaScript.
+//! SVG figures and thumbnails embedded as `data:` URIs, so it can be mailed, archived or
+//! opened offline without the files beside it. No JavaScript.
 
 mod embed;
-pub mod svg;
+pub mod figure;
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use shadetrace_formats::results::{stage_names, traffic_names};
-use shadetrace_replay::images::{heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE};
+use shadetrace_replay::images::{
+    heat_map, robust_max, side_by_side, Rgba8Image, ERROR_LABEL, ERROR_SCALE, SSIM_LOSS_LABEL, SSIM_LOSS_SCALE,
+};
 use shadetrace_replay::run::{FrameImages, ViewImages};
 use shadetrace_replay::{LoadedTrace, RunOutput};
 
@@ -18,7 +20,7 @@ use shadetrace_formats::atomic_file::write_bytes_atomically;
 /// Width, in pixels, of each view in the report's thumbnails (nearest neighbour), so that the
 /// page stays small however many presets and scenes it shows; the full-size pictures are
 /// files beside it.
-const THUMBNAIL_VIEW_WIDTH: u32 = 200;
+const THUMBNAIL_VIEW_WIDTH: u32 = 160;
 const HEAT_LABEL: &str = "issued instructions per pixel";
 
 /// What the report says about a trace, taken from its header.
@@ -59,21 +61,29 @@ pub struct ReportSection<'a> {
     pub pictures: bool,
 }
 
+/// Names of the figure files a report writes into each section's folder (`NAME.svg` and
+/// `NAME.png`), so that a new run can remove an earlier run's.
+pub const FIGURES: [&str; 3] = ["traffic", "cost-quality", "per-frame"];
+
 /// Writes the report to `path` (atomically). `note` tells readers how the runs were
 /// reduced (resolution, frames) or that they were not.
-/// Each figure is also written as a standalone SVG beside the page (in the section's
-/// folder), ready for a paper; the page links to it under the figure.
+/// Each figure is also written as a standalone SVG and PNG beside the page (in the
+/// section's folder), ready for a paper; the page links to them under the figure.
 pub fn write_html(path: &Path, title: &str, note: &str, sections: &[ReportSection]) -> Result<(), String> {
     let (html, figures) = render(title, note, sections)?;
     let dir = path.parent().unwrap_or(Path::new(""));
-    for (file, svg) in &figures {
-        write_bytes_atomically(&dir.join(file), svg::standalone(svg).as_bytes())?;
+    for (stem, figure) in &figures {
+        write_bytes_atomically(&dir.join(format!("{stem}.svg")), figure.svg.as_bytes())?;
+        write_bytes_atomically(&dir.join(format!("{stem}.png")), &figure.png)?;
     }
     write_bytes_atomically(path, html.as_bytes())
 }
 
-/// The whole page, and its figures as (file relative to the page, inline SVG).
-fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<(String, Vec<(String, String)>), String> {
+/// A figure and the path of its files relative to the page, without extension.
+type PlacedFigure = (String, figure::Figure);
+
+/// The whole page, and its figures.
+fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<(String, Vec<PlacedFigure>), String> {
     let images = sections
         .iter()
         .map(|s| SectionImages::encode(s.runs, THUMBNAIL_VIEW_WIDTH))
@@ -106,7 +116,7 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<(String
     }
     let mut figures = Vec::new();
     for (section, images) in sections.iter().zip(&images) {
-        render_section(&mut h, section, images, &mut figures);
+        render_section(&mut h, section, images, &mut figures)?;
     }
     let _ = write!(
         h,
@@ -119,23 +129,34 @@ fn render(title: &str, note: &str, sections: &[ReportSection]) -> Result<(String
     Ok((h, figures))
 }
 
-/// Puts a plot on the page with a link to its standalone file, and records the file.
-fn plot(h: &mut String, section: &ReportSection, name: &str, svg: String, figures: &mut Vec<(String, String)>) {
-    let file = file_href(&section.files, &format!("{name}.svg"));
+/// Draws `plot`, puts it on the page with links to its standalone files, and records them.
+/// The `<figure>` is left open for a note.
+fn plot(
+    h: &mut String,
+    section: &ReportSection,
+    name: &str,
+    plot: &impl figure::Plot,
+    figures: &mut Vec<PlacedFigure>,
+) -> Result<(), String> {
+    let drawn = figure::render(plot)?;
+    let stem = file_href(&section.files, name);
     let _ = write!(
         h,
-        "<figure>{svg}<figcaption><a href=\"{}\">{name}.svg</a></figcaption>",
-        escape(&file)
+        "<figure>{}<figcaption><a href=\"{}.svg\">{name}.svg</a>, <a href=\"{}.png\">{name}.png</a></figcaption>",
+        figure::inline(&drawn),
+        escape(&stem),
+        escape(&stem)
     );
-    figures.push((file, svg));
+    figures.push((stem, drawn));
+    Ok(())
 }
 
 fn render_section(
     h: &mut String,
     section: &ReportSection,
     images: &SectionImages,
-    figures: &mut Vec<(String, String)>,
-) {
+    figures: &mut Vec<PlacedFigure>,
+) -> Result<(), String> {
     let t = &section.trace;
     let _ = write!(
         h,
@@ -177,7 +198,11 @@ fn render_section(
         })
         .collect();
     h.push_str("<h3>DRAM traffic per class</h3>\n");
-    plot(h, section, "traffic", svg::traffic_bars(&classes, &bars), figures);
+    let traffic = figure::TrafficBars {
+        classes: &classes,
+        bars: &bars,
+    };
+    plot(h, section, "traffic", &traffic, figures)?;
     h.push_str("</figure>\n");
 
     let points: Vec<(String, f64, f64)> = section
@@ -189,39 +214,54 @@ fn render_section(
         })
         .collect();
     h.push_str("<h3>Shading cost against quality</h3>\n");
-    plot(
-        h,
-        section,
-        "cost-quality",
-        svg::cost_quality_scatter(&points, false),
-        figures,
-    );
+    let scatter = figure::CostQuality {
+        points: &points,
+        joined: false,
+    };
+    plot(h, section, "cost-quality", &scatter, figures)?;
+    h.push_str("<p class=\"note\">The Pareto front (black line, ringed points): no other preset is both cheaper and closer to the reference.</p>");
     if points.len() < section.runs.len() {
         h.push_str("<p class=\"note\">Runs without a relative cost or an SSIM (views smaller than the 11x11 SSIM window) are not plotted.</p>");
     }
     h.push_str("</figure>\n");
 
-    // Over an animation: the cost of every frame, so that a frame that stands out shows.
-    let per_frame: Vec<(String, Vec<(u32, f64)>)> = section
+    // Over an animation: the cost and quality of every frame, so that a frame that stands out shows.
+    let per_frame: Vec<figure::FrameSeries> = section
         .runs
         .iter()
         .map(|run| {
-            let r = &run.result;
-            let points = r
-                .frames
+            let frames = &run.result.frames;
+            let cost = frames
                 .iter()
                 .filter_map(|f| {
                     let costs: Vec<f64> = f.views.iter().filter_map(|v| v.relative_cost).collect();
                     (!costs.is_empty()).then(|| (f.frame, 100.0 * costs.iter().sum::<f64>() / costs.len() as f64))
                 })
                 .collect();
-            (r.preset.clone(), points)
+            let min_ssim = frames
+                .iter()
+                .filter_map(|f| {
+                    let ssim = f.views.iter().filter_map(|v| v.quality.and_then(|q| q.ssim));
+                    Some((f.frame, ssim.reduce(f64::min)?))
+                })
+                .collect();
+            figure::FrameSeries {
+                label: run.result.preset.clone(),
+                cost,
+                min_ssim,
+            }
         })
         .collect();
     if section.runs.first().is_some_and(|r| r.result.frames.len() > 1) {
-        h.push_str("<h3>Shading cost per frame</h3>\n");
-        plot(h, section, "cost-per-frame", svg::cost_per_frame(&per_frame), figures);
-        h.push_str("<p class=\"note\">The mean of both views' relative cost; per frame and view numbers are in <code>frames.csv</code>.</p></figure>\n");
+        h.push_str("<h3>Cost and quality per frame</h3>\n");
+        plot(
+            h,
+            section,
+            "per-frame",
+            &figure::PerFrame { series: &per_frame },
+            figures,
+        )?;
+        h.push_str("<p class=\"note\">Cost: the mean of both views' relative cost. Quality: the lower SSIM of the two views. Per frame and view numbers are in <code>frames.csv</code>.</p></figure>\n");
     }
 
     match &images.frame {
@@ -246,18 +286,15 @@ fn render_section(
                  {ERROR_SCALE} scale for every preset and frame (larger errors saturate).</p>\n\
                  <div class=\"grid\">"
             );
-            for (run, uri) in section.runs.iter().zip(&images.error) {
-                match uri {
-                    Some(uri) => figure(h, &run.result.preset, uri, link(run, "left-error").as_deref()),
-                    None => {
-                        let _ = write!(
-                            h,
-                            "<figure><figcaption>{}: not compared</figcaption></figure>",
-                            escape(&run.result.preset)
-                        );
-                    }
-                }
-            }
+            compared_grid(h, section, &images.error, &|run| link(run, "left-error"));
+            let _ = write!(
+                h,
+                "</div>\n<h3>Frame {frame}: SSIM loss against the reference (left | right)</h3>\n\
+                 <p>Per pixel <code>1 - SSIM</code> of the 11x11 Gaussian window centred on it (the map the SSIM \
+                 column averages), on a fixed 0 to {SSIM_LOSS_SCALE} scale (larger losses saturate).</p>\n\
+                 <div class=\"grid\">"
+            );
+            compared_grid(h, section, &images.ssim_loss, &|run| link(run, "left-ssim"));
             let _ = write!(
                 h,
                 "</div>\n<h3>Frame {frame}: shading cost per pixel (left | right)</h3>\n\
@@ -289,6 +326,7 @@ fn render_section(
         );
     }
     h.push_str("</p>\n</section>\n");
+    Ok(())
 }
 
 /// A link to `file` in the section's folder `dir` ("" when beside the report).
@@ -311,8 +349,8 @@ fn render_table(h: &mut String, section: &ReportSection) {
         let _ = write!(
             h,
             "<th><span class=\"swatch\" style=\"background:{}\"></span>{} KiB</th>",
-            svg::class_colour(i),
-            escape(&svg::class_label(class))
+            figure::class_colour(i),
+            escape(&figure::class_label(class))
         );
     }
     h.push_str("<th>total KiB</th></tr></thead>\n<tbody>\n");
@@ -348,6 +386,28 @@ fn render_table(h: &mut String, section: &ReportSection) {
     h.push_str("</tbody>\n</table>\n");
 }
 
+/// One thumbnail per run of a picture made against the reference (`uris`, None for a run
+/// that has none), linked to the full-size file `link` gives.
+fn compared_grid(
+    h: &mut String,
+    section: &ReportSection,
+    uris: &[Option<String>],
+    link: &dyn Fn(&RunOutput) -> Option<String>,
+) {
+    for (run, uri) in section.runs.iter().zip(uris) {
+        match uri {
+            Some(uri) => figure(h, &run.result.preset, uri, link(run).as_deref()),
+            None => {
+                let _ = write!(
+                    h,
+                    "<figure><figcaption>{}: not compared</figcaption></figure>",
+                    escape(&run.result.preset)
+                );
+            }
+        }
+    }
+}
+
 /// A thumbnail with its caption, a link to the full-size picture when there is one.
 fn figure(h: &mut String, caption: &str, uri: &str, full_size: Option<&str>) {
     let caption = escape(caption);
@@ -366,6 +426,8 @@ struct SectionImages {
     stereo: Vec<String>,
     /// The error against the reference, for runs that were compared with it.
     error: Vec<Option<String>>,
+    /// The SSIM loss map, for runs that were compared (at least 11x11 views).
+    ssim_loss: Vec<Option<String>>,
     heat: Vec<String>,
     /// Top of the common heat-map scale.
     heat_max: f32,
@@ -387,6 +449,7 @@ impl SectionImages {
             frame: firsts.first().map(|f| f.frame),
             stereo: Vec::new(),
             error: Vec::new(),
+            ssim_loss: Vec::new(),
             heat: Vec::new(),
             heat_max,
         };
@@ -401,18 +464,20 @@ impl SectionImages {
             let stereo = side_by_side(&shrink(&left.color), &shrink(&right.color));
             images.stereo.push(embed::jpeg_data_uri(&stereo)?);
             let per_view =
-                |values: &dyn Fn(&ViewImages) -> Option<Vec<u32>>| stereo_grid(frame, max_view_width, values);
-            let (values, width, height) = per_view(&|v| Some(v.cost_heat.clone())).ok_or("no cost map")?;
-            let map = heat_map(&values, width, height, Some(heat_max), HEAT_LABEL);
-            images.heat.push(embed::png_data_uri(&map.to_png_bytes()?));
-            let error = per_view(&|v| v.error.as_ref().map(|e| e.iter().map(|&x| u32::from(x)).collect()));
-            images.error.push(match error {
+                |values: &dyn Fn(&ViewImages) -> Option<Vec<f32>>| stereo_grid(frame, max_view_width, values);
+            let map = |values: Option<(Vec<f32>, u32, u32)>, scale: f32, label: &str| match values {
                 Some((values, width, height)) => {
-                    let map = heat_map(&values, width, height, Some(ERROR_SCALE), ERROR_LABEL);
-                    Some(embed::png_data_uri(&map.to_png_bytes()?))
+                    let map = heat_map(&values, width, height, Some(scale), label);
+                    map.to_png_bytes().map(|png| Some(embed::png_data_uri(&png)))
                 }
-                None => None,
-            });
+                None => Ok(None),
+            };
+            let cost = per_view(&|v| Some(v.cost_heat.iter().map(|&c| c as f32).collect()));
+            images.heat.push(map(cost, heat_max, HEAT_LABEL)?.ok_or("no cost map")?);
+            let error = per_view(&|v| v.error.as_ref().map(|e| e.iter().map(|&x| f32::from(x)).collect()));
+            images.error.push(map(error, ERROR_SCALE, ERROR_LABEL)?);
+            let ssim_loss = per_view(&|v| v.ssim_loss.clone());
+            images.ssim_loss.push(map(ssim_loss, SSIM_LOSS_SCALE, SSIM_LOSS_LABEL)?);
         }
         Ok(images)
     }
@@ -424,13 +489,13 @@ impl SectionImages {
 fn stereo_grid(
     frame: &FrameImages,
     max_view_width: u32,
-    values: &dyn Fn(&ViewImages) -> Option<Vec<u32>>,
+    values: &dyn Fn(&ViewImages) -> Option<Vec<f32>>,
 ) -> Option<(Vec<f32>, u32, u32)> {
     let mut views = Vec::new();
     for v in &frame.views {
         let (w, h) = (v.color.width, v.color.height);
         let to = embed::fit_width(w, h, max_view_width);
-        views.push((embed::resample(&values(v)?, w, h, to, 0), to.0, to.1));
+        views.push((embed::resample(&values(v)?, w, h, to, 0.0), to.0, to.1));
     }
     let width = views.iter().map(|v| v.1).fold(0u32, u32::saturating_add);
     let height = views.iter().map(|v| v.2).max().unwrap_or(0);
@@ -438,7 +503,7 @@ fn stereo_grid(
     for y in 0..height as usize {
         for (data, w, _) in &views {
             let w = *w as usize;
-            grid.extend((0..w).map(|x| data.get(y * w + x).map_or(0.0, |&c| c as f32)));
+            grid.extend((0..w).map(|x| data.get(y * w + x).copied().unwrap_or(0.0)));
         }
     }
     Some((grid, width, height))
