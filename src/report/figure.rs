@@ -661,6 +661,14 @@ mod tests {
         for label in ["forward", "a", "b", "Pareto front", "1 − min SSIM (log scale)"] {
             assert!(has_text(&svg, label), "{label}");
         }
+        // A sweep's points are joined in order (in grey, apart from the black Pareto front).
+        let joined = render(&CostQuality {
+            points: &list,
+            joined: true,
+        })
+        .unwrap()
+        .svg;
+        assert!(!svg.contains("stroke=\"#777777\"") && joined.contains("stroke=\"#777777\""));
         // Past the palette's eight colours, markers change shape: no two points look alike.
         let many = (0..10)
             .map(|i| (format!("p{i}"), 10.0 * i as f64, 0.999))
