@@ -4,6 +4,7 @@ mod commands;
 mod golden;
 mod progress;
 mod report;
+mod sweep;
 
 use std::process::ExitCode;
 
@@ -29,8 +30,13 @@ enum Command {
     Compare(commands::compare::Args),
     /// Capture the built-in scenes and compare every preset on each (the README's main job).
     Demo(commands::demo::Args),
-    /// Cost-versus-SSIM curve of a multi-rate preset over refinement-threshold scales.
+    /// Run a parameter study (SPEC.toml: traces x presets x option grid) into a results store;
+    /// resumable, sharded on Slurm or Kubernetes array jobs.
     Sweep(commands::sweep::Args),
+    /// Combine the stores of a sweep's shards.
+    Merge(commands::merge::Args),
+    /// Summarize a sweep's store: per preset and option value, mean and spread; Pareto front.
+    SweepReport(commands::sweep_report::Args),
     /// List the presets, schedulers and shading schemes and what each models.
     Presets(commands::presets::Args),
     /// Compare every corpus trace x preset with the golden numbers in traces/golden/.
@@ -46,6 +52,8 @@ fn main() -> ExitCode {
         Command::Compare(args) => commands::compare::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Sweep(args) => commands::sweep::run(args),
+        Command::Merge(args) => commands::merge::run(args),
+        Command::SweepReport(args) => commands::sweep_report::run(args),
         Command::Presets(args) => commands::presets::run(args),
         Command::Check(args) => commands::check::run(args),
     };

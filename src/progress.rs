@@ -60,14 +60,15 @@ pub fn replay_bar(frames: u32, runs: usize, what: &str, quiet: bool) -> Progress
 impl Progress {
     /// Reports a replay's step (see [`replay_bar`]).
     pub fn replay_step(&self, step: ReplayStep, frames: u32) {
-        self.set(step.units_done(), &step_label(step, frames));
+        self.set_position_with(step.units_done(), &step_label(step, frames));
     }
 
     pub fn set_position(&self, done: u64) {
-        self.set(done, "");
+        self.set_position_with(done, "");
     }
 
-    fn set(&self, done: u64, step: &str) {
+    /// The position, with where the work is (shown on the bar and in log lines).
+    pub fn set_position_with(&self, done: u64, step: &str) {
         match &self.kind {
             Kind::Hidden => {}
             Kind::Bar(bar) => {

@@ -82,46 +82,6 @@ fn bad_preset_is_one_line_error() {
     assert!(err.starts_with("error: unknown preset `teapot`"), "{err}");
 }
 
-#[test]
-fn sweep_spans_refine_all_to_refine_none() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let o = shadetrace(
-        &[
-            "sweep",
-            "traces/spheres.strace",
-            "--scales",
-            "0,1,inf",
-            "--res",
-            "96x108",
-            "--frames",
-            "0",
-            "--out",
-            out,
-            "--quiet",
-        ],
-        None,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = std::fs::read_to_string(dir.path().join("sweep.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = text
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
-        .collect();
-    assert_eq!(rows.len(), 3);
-    assert_eq!(rows[0][2], 1.0, "threshold 0 must reproduce the reference");
-    assert_eq!(rows[2][3], 0.0, "infinite thresholds refine nothing");
-    assert!(
-        rows[0][1] > rows[1][1] && rows[1][1] > rows[2][1],
-        "cost falls as thresholds rise: {rows:?}"
-    );
-    // A standalone SVG opens on its own only with its namespace; the PNG is twice its size.
-    let svg = std::fs::read_to_string(dir.path().join("sweep.svg")).unwrap();
-    assert!(svg.contains(r#"xmlns="http://www.w3.org/2000/svg""#) && svg.contains(">\nx1\n</text>"));
-    assert_eq!(image::open(dir.path().join("sweep.png")).unwrap().width(), 2 * 640);
-}
-
 /// With the reference run, each view gets an error image against it; without, none.
 #[test]
 fn replay_writes_error_images_against_the_reference() {

@@ -71,6 +71,91 @@ pub fn write_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> {
     })
 }
 
+/// A value of a per-frame row: `frames.csv` writes it as text, the sweep store with its type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cell {
+    Int(i64),
+    Real(f64),
+    Text(String),
+    /// Not measured (e.g. no reference run): an empty CSV field, NULL in the store.
+    Empty,
+}
+
+impl Cell {
+    fn csv(&self) -> String {
+        match self {
+            Cell::Int(v) => v.to_string(),
+            Cell::Real(v) => v.to_string(),
+            Cell::Text(v) => v.clone(),
+            Cell::Empty => String::new(),
+        }
+    }
+
+    fn int(v: u64) -> Cell {
+        i64::try_from(v).map_or(Cell::Real(v as f64), Cell::Int)
+    }
+
+    fn opt(v: Option<f64>) -> Cell {
+        v.map_or(Cell::Empty, Cell::Real)
+    }
+}
+
+/// The columns of `frames.csv` for runs that report `stages` and traffic `classes` (README,
+/// Output files).
+pub fn frame_header(stages: &[String], classes: &[String]) -> Vec<String> {
+    let mut header: Vec<String> = ["preset", "scheduler", "scheme", "frame", "eye", "issued"]
+        .map(String::from)
+        .to_vec();
+    header.extend(stages.iter().map(|s| format!("{s}_issued")));
+    header.extend(
+        [
+            "relative_cost_pct",
+            "simd_utilization_pct",
+            "ssim",
+            "ssim_covered",
+            "psnr_db",
+            "max_abs_error",
+            "fragments_shaded",
+            "pixels_covered",
+        ]
+        .map(String::from),
+    );
+    header.extend(classes.iter().map(|c| format!("frame_{c}_bytes")));
+    header
+}
+
+/// One row per frame and view of `r`, in [`frame_header`]'s columns.
+pub fn frame_rows(r: &RunResult, stages: &[String], classes: &[String]) -> Vec<Vec<Cell>> {
+    let mut rows = Vec::new();
+    for frame in &r.frames {
+        for view in &frame.views {
+            let q = view.quality;
+            let mut row = vec![
+                Cell::Text(r.preset.clone()),
+                Cell::Text(r.scheduler.clone()),
+                Cell::Text(r.scheme.clone()),
+                Cell::Int(i64::from(frame.frame)),
+                Cell::Text(view.eye.clone()),
+                Cell::int(view.cost.issued()),
+            ];
+            row.extend(stages.iter().map(|s| Cell::int(view.cost.stage(s).issued())));
+            row.extend([
+                Cell::opt(view.relative_cost.map(|c| 100.0 * c)),
+                Cell::Real(100.0 * view.cost.simd_utilization()),
+                Cell::opt(q.and_then(|q| q.ssim)),
+                Cell::opt(q.and_then(|q| q.ssim_covered)),
+                Cell::opt(q.and_then(|q| q.psnr_db)),
+                q.map_or(Cell::Empty, |q| Cell::Int(i64::from(q.max_abs_error))),
+                Cell::int(view.raster.fragments_shaded),
+                Cell::int(view.raster.pixels_covered),
+            ]);
+            row.extend(classes.iter().map(|c| Cell::int(frame.traffic.bytes(c))));
+            rows.push(row);
+        }
+    }
+    rows
+}
+
 /// Writes `frames.csv` at `path`: one row per run, frame and view, with the view's counters,
 /// relative cost and quality, and the frame's DRAM bytes per class (shared by its two views,
 /// so they repeat on both rows).
@@ -79,51 +164,11 @@ pub fn write_frames_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> 
     let columns = Columns::of(runs);
     write_atomically(path, |w| {
         let mut csv = csv::Writer::from_writer(w);
-        let mut header: Vec<String> = ["preset", "scheduler", "scheme", "frame", "eye", "issued"]
-            .map(String::from)
-            .to_vec();
-        header.extend(columns.stages.iter().map(|s| format!("{s}_issued")));
-        header.extend(
-            [
-                "relative_cost_pct",
-                "simd_utilization_pct",
-                "ssim",
-                "ssim_covered",
-                "psnr_db",
-                "max_abs_error",
-                "fragments_shaded",
-                "pixels_covered",
-            ]
-            .map(String::from),
-        );
-        header.extend(columns.classes.iter().map(|c| format!("frame_{c}_bytes")));
-        csv.write_record(&header).map_err(fail)?;
+        csv.write_record(frame_header(&columns.stages, &columns.classes))
+            .map_err(fail)?;
         for r in runs {
-            for frame in &r.frames {
-                for view in &frame.views {
-                    let q = view.quality;
-                    let mut row = vec![
-                        r.preset.clone(),
-                        r.scheduler.clone(),
-                        r.scheme.clone(),
-                        frame.frame.to_string(),
-                        view.eye.clone(),
-                        view.cost.issued().to_string(),
-                    ];
-                    row.extend(columns.stages.iter().map(|s| view.cost.stage(s).issued().to_string()));
-                    row.extend([
-                        opt(view.relative_cost, |c| (100.0 * c).to_string()),
-                        (100.0 * view.cost.simd_utilization()).to_string(),
-                        opt(q.and_then(|q| q.ssim), |s| s.to_string()),
-                        opt(q.and_then(|q| q.ssim_covered), |s| s.to_string()),
-                        opt(q.and_then(|q| q.psnr_db), |p| p.to_string()),
-                        q.map_or_else(String::new, |q| q.max_abs_error.to_string()),
-                        view.raster.fragments_shaded.to_string(),
-                        view.raster.pixels_covered.to_string(),
-                    ]);
-                    row.extend(columns.classes.iter().map(|c| frame.traffic.bytes(c).to_string()));
-                    csv.write_record(&row).map_err(fail)?;
-                }
+            for row in frame_rows(r, &columns.stages, &columns.classes) {
+                csv.write_record(row.iter().map(Cell::csv)).map_err(fail)?;
             }
         }
         csv.flush().map_err(|e| format!("{}: {e}", path.display()))
