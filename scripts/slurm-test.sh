@@ -8,12 +8,18 @@
 # after itself; fails loudly when Slurm cannot start.
 #   scripts/slurm-test.sh [SHADETRACE_BINARY]
 set -euo pipefail
-cd "$(dirname "$0")/.."
+self=$(realpath "$0")
+cd "$(dirname "$self")/.."
 repo=$(pwd)
 started=$(date +%s)
 say() { echo "slurm-test [$(($(date +%s) - started)) s]: $*"; }
 fail() { echo "slurm-test: FAILED: $*" >&2; exit 1; }
-[ "$(id -u)" = 0 ] || fail "needs root (it starts munged, slurmctld and slurmd)"
+if [ "$(id -u)" != 0 ]; then
+  if command -v sudo >/dev/null && sudo -n true 2>/dev/null; then
+    exec sudo -n --preserve-env=PATH,HOME,RUSTUP_HOME,CARGO_HOME "$self" "$@"
+  fi
+  fail "needs root (it starts munged, slurmctld and slurmd), and sudo -n does not work"
+fi
 
 if [ $# -ge 1 ]; then
   bin=$(realpath "$1")
@@ -21,10 +27,10 @@ else
   cargo build --release --quiet
   bin=$repo/target/release/shadetrace
 fi
-if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null; then
-  say "installing slurm-wlm and munge"
+if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null || ! command -v python3 >/dev/null; then
+  say "installing slurm-wlm, munge and python3"
   apt-get update -qq >/dev/null
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq slurm-wlm munge >/dev/null
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq slurm-wlm munge python3 >/dev/null
 fi
 say "$(slurmctld -V)"
 
