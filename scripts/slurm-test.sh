@@ -61,7 +61,7 @@ for _ in $(seq 50); do [ -S "$socket" ] && break; sleep 0.1; done
 [ -S "$socket" ] || fail "munged did not start: $(tail -3 "$work/munged.out" 2>/dev/null)"
 
 # Slurm: one node (this machine, on loopback), one partition, no accounting, no cgroups.
-node=$(hostname -s)
+node=$(uname -n | cut -d. -f1)
 cpus=$(nproc)
 mkdir -p "$work/state" "$work/spool"
 export SLURM_CONF=$work/slurm.conf

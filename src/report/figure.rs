@@ -248,13 +248,7 @@ impl Plot for CostQuality<'_> {
         let (width, _) = root.dim_in_pixel();
         let (plot, legend_area) = root.split_horizontally(width - px(f64::from(LEGEND_WIDTH), k));
         let x_max = points.iter().map(|p| p.1 .1).fold(100.0, f64::max) * 1.05;
-        let top = 10f64.powf(
-            points
-                .iter()
-                .map(|p| loss(p.1 .2).log10().ceil())
-                .fold(-4.0, f64::max)
-                .min(0.0),
-        );
+        let top = loss_axis_top(points.iter().map(|p| loss(p.1 .2)));
         let mut chart = ChartBuilder::on(&plot)
             .margin(px(10.0, k))
             .x_label_area_size(px(40.0, k))
@@ -358,14 +352,7 @@ impl Plot for PerFrame<'_> {
             .iter()
             .map(|s| finite(&s.min_ssim).into_iter().map(|(f, v)| (f, loss(v))).collect())
             .collect();
-        let top = 10f64.powf(
-            losses
-                .iter()
-                .flatten()
-                .map(|p| p.1.log10().ceil())
-                .fold(-4.0, f64::max)
-                .min(0.0),
-        );
+        let top = loss_axis_top(losses.iter().flatten().map(|p| p.1));
         let mut quality = ChartBuilder::on(&lower)
             .margin(px(10.0, k))
             .x_label_area_size(px(40.0, k))
@@ -482,6 +469,12 @@ fn marker<DB: DrawingBackend>(
 /// `1 - ssim`, raised to the plot's floor.
 fn loss(ssim: f64) -> f64 {
     (1.0 - ssim).max(LOSS_FLOOR)
+}
+
+/// Top of an SSIM-loss axis: the whole decade above the largest of `losses`, at least 1e-4
+/// (so near-perfect runs do not fill the plot) and at most 1.
+fn loss_axis_top(losses: impl Iterator<Item = f64>) -> f64 {
+    10f64.powf(losses.map(|l| l.log10().ceil()).fold(-4.0, f64::max).min(0.0))
 }
 
 /// The indices of the points `(cost, loss)` on the Pareto front, cheapest first: those that
