@@ -215,6 +215,34 @@ fn bad_specs_name_the_line_and_cluster_scripts_submit_as_is() {
     let o = shadetrace(&["sweep", &spec, "--out", &out, "--emit-k8s", "4"], None);
     // The temporary folder is outside the repository (the working folder): refused.
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("inside the current folder"));
+    // Inside the working folder (the claim's mount) it writes an Indexed Job of 4 pods.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_shadetrace"))
+        .args([
+            "sweep",
+            "spec.toml",
+            "--out",
+            "out",
+            "--emit-k8s",
+            "4",
+            "--k8s-image",
+            "lab/shadetrace:1",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let job = std::fs::read_to_string(dir.path().join("out/sweep-job.yaml")).unwrap();
+    for line in [
+        "kind: Job",
+        "  completions: 4",
+        "  parallelism: 4",
+        "  completionMode: Indexed",
+        "        image: \"lab/shadetrace:1\"",
+        "\"--shards\", \"4\"",
+        "claimName: \"shadetrace-data\"",
+    ] {
+        assert!(job.contains(line), "{line} missing from\n{job}");
+    }
     // No shard in a Kubernetes pod without the Job's completions.
     let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_shadetrace"));
     let o = cmd
