@@ -76,6 +76,9 @@ pub struct FrameResult {
     pub caches: CacheReport,
     pub lists: ListStats,
     pub shadow_pass: Option<ShadowPassStats>,
+    /// Bytes of the G-buffer of both views (deferred schemes only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gbuffer_bytes: Option<u64>,
 }
 
 /// Per-view counters.
@@ -386,6 +389,9 @@ pub struct CacheReport {
     pub color: CacheStats,
     pub triangle_data: CacheStats,
     pub texture: CacheStats,
+    /// Only deferred schemes have a G-buffer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gbuffer: Option<CacheStats>,
 }
 
 /// Binning lists (the tile-pair paper's Table 1 columns), both views together.

@@ -84,7 +84,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 16] = [
+const FIXED_BLOCKS: [Block; 18] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -101,6 +101,8 @@ const FIXED_BLOCKS: [Block; 16] = [
     Block::CacheQuery,
     Block::ReuseTest,
     Block::ReuseCrossView,
+    Block::GBufferWrite,
+    Block::GBufferRead,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

@@ -55,6 +55,12 @@ pub enum Block {
     ReuseTest,
     /// Tile-pair reuse on a cross-view hit: projection, reflection and the `R · L` check.
     ReuseCrossView,
+    /// Deferred G-buffer pass: interpolate and normalize the normal, octahedral encoding to
+    /// 2x16 bits, pack albedo, ids and depth into the targets.
+    GBufferWrite,
+    /// Deferred lighting pass: four G-buffer fetches (depth, normal, albedo, ids), octahedral
+    /// decode, position from depth.
+    GBufferRead,
 }
 
 impl Block {
@@ -76,6 +82,8 @@ impl Block {
             Block::CacheQuery => (4, 0),
             Block::ReuseTest => (8, 0),
             Block::ReuseCrossView => (16, 0),
+            Block::GBufferWrite => (12, 0),
+            Block::GBufferRead => (10, 4),
         };
         BlockCost { alu, tex }
     }

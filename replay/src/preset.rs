@@ -67,7 +67,7 @@ const fn without_small_triangle_path(preset: Preset) -> Preset {
 /// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
 /// shading of small blocks would bypass. He et al.'s own presets keep their paper's
 /// coverage-bbox samples, small-triangle path and immediate pipeline.
-pub const PRESETS: [Preset; 12] = [
+pub const PRESETS: [Preset; 13] = [
     preset(
         "forward",
         "immediate",
@@ -171,6 +171,12 @@ pub const PRESETS: [Preset; 12] = [
         ),
         CoarseMode::Coarse2x2,
         None,
+    ),
+    preset(
+        "deferred",
+        "immediate",
+        "deferred",
+        "deferred shading (RTR4 20.1): a 20-byte G-buffer pass, then a lighting pass per tile",
     ),
 ];
 

@@ -328,6 +328,7 @@ impl Replay {
             caches: out.caches,
             lists: out.lists,
             shadow_pass: out.shadow_pass,
+            gbuffer_bytes: out.gbuffer_bytes,
         });
         *self.stages.entry("quality").or_default() += quality_started.elapsed();
         self.busy += started.elapsed();

@@ -4,6 +4,11 @@
 
 use super::LINE_BYTES;
 
+/// Bytes per G-buffer sample, depth included, as in Schied and Dachsbacher's comparison:
+/// albedo RGBA8 (4), triangle id (4), linear depth f32 (4), octahedral normal 2x16 bits (4),
+/// material id (4).
+pub const GBUFFER_SAMPLE_BYTES: u32 = 20;
+
 #[derive(Clone, Copy, Debug)]
 pub struct FramebufferLayout {
     width: u32,
@@ -36,6 +41,22 @@ impl FramebufferLayout {
 
     pub fn color_line(&self, view: u8, x: u32, y: u32) -> u64 {
         self.line(view, x, y, 16)
+    }
+
+    /// A deferred scheme's G-buffer sample (albedo, triangle id, linear depth, normal,
+    /// material id: [`GBUFFER_SAMPLE_BYTES`]), in its own address range.
+    pub fn gbuffer_line(&self, view: u8, x: u32, y: u32) -> u64 {
+        self.line(view, x, y, GBUFFER_SAMPLE_BYTES)
+    }
+
+    /// Bytes of the G-buffer of one view.
+    pub fn gbuffer_bytes(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height) * u64::from(self.samples) * u64::from(GBUFFER_SAMPLE_BYTES)
+    }
+
+    /// Bytes of a G-buffer cache holding `tiles` tiles of `tile`² pixels.
+    pub fn gbuffer_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
+        (tile * tile * GBUFFER_SAMPLE_BYTES * self.samples * tiles) as u64
     }
 
     /// Bytes of a depth cache holding `tiles` tiles of `tile`² pixels.

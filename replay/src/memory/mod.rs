@@ -7,7 +7,7 @@
 
 mod framebuffer;
 
-pub use framebuffer::FramebufferLayout;
+pub use framebuffer::{FramebufferLayout, GBUFFER_SAMPLE_BYTES};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};
@@ -18,6 +18,8 @@ pub const LINE_BYTES: u64 = 256;
 pub const DEPTH_COLOR: &str = "depth_color";
 pub const TRIANGLE_DATA: &str = "triangle_data";
 pub const TEXTURE: &str = "texture";
+/// Written and read only by deferred schemes' G-buffers (reported only where used).
+pub const GBUFFER: &str = "gbuffer";
 /// Associativity of every cache (fewer ways when a cache has fewer lines).
 const WAYS: usize = 4;
 /// Depth is compressed 4x and colour 2x on their way to DRAM (Seiler et al., as in the
@@ -33,6 +35,8 @@ pub enum Stream {
     Color = 1,
     TriangleData = 2,
     Texture = 3,
+    /// A deferred scheme's G-buffer: a render target like colour, uncompressed.
+    GBuffer = 4,
 }
 
 /// Log entries are 32-bit: a line number below 2^31 and a write bit. Every stream's address
@@ -40,7 +44,7 @@ pub enum Stream {
 /// mips and the shadow map, about 2^25 lines.
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
-const STREAMS: usize = 4;
+const STREAMS: usize = 5;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
 /// replays only its own accesses), cut into segments, one per command that made accesses.
@@ -146,6 +150,7 @@ pub struct CacheSizes {
     pub color: u64,
     pub triangle_data: u64,
     pub texture: u64,
+    pub gbuffer: u64,
 }
 
 /// One set-associative LRU cache, or the part of one that holds the sets `part` of
@@ -275,7 +280,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
         let mut written = LineSet::default();
         let mut dram_lines = 0u64;
         let mut writebacks = 0u64;
-        let framebuffer = matches!(stream, Stream::Depth | Stream::Color);
+        let framebuffer = matches!(stream, Stream::Depth | Stream::Color | Stream::GBuffer);
         for &(log, i) in segments {
             for &entry in log.stream(i, stream as usize) {
                 let line = u64::from(entry & LINE_MASK);
@@ -313,14 +318,19 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
                 (d + pd, w + pw, stats)
             })
     };
-    let ((depth, color), (tri, tex)) = rayon::join(
-        || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
+    let (((depth, color), (tri, tex)), gbuffer) = rayon::join(
         || {
             rayon::join(
-                || run(Stream::TriangleData, sizes.triangle_data),
-                || run(Stream::Texture, sizes.texture),
+                || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
+                || {
+                    rayon::join(
+                        || run(Stream::TriangleData, sizes.triangle_data),
+                        || run(Stream::Texture, sizes.texture),
+                    )
+                },
             )
         },
+        || run(Stream::GBuffer, sizes.gbuffer),
     );
     let mut traffic = Traffic::default();
     traffic.add_bytes(
@@ -329,11 +339,16 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
     );
     traffic.add_bytes(TRIANGLE_DATA, (tri.0 + tri.1) * LINE_BYTES);
     traffic.add_bytes(TEXTURE, (tex.0 + tex.1) * LINE_BYTES);
+    let used_gbuffer = gbuffer.2.accesses > 0;
+    if used_gbuffer {
+        traffic.add_bytes(GBUFFER, (gbuffer.0 + gbuffer.1) * LINE_BYTES);
+    }
     let report = CacheReport {
         depth: depth.2,
         color: color.2,
         triangle_data: tri.2,
         texture: tex.2,
+        gbuffer: used_gbuffer.then_some(gbuffer.2),
     };
     (traffic, report)
 }
@@ -368,6 +383,7 @@ mod tests {
             color: LINE_BYTES,
             triangle_data: LINE_BYTES,
             texture: LINE_BYTES,
+            gbuffer: 4096,
         };
         // Depth line 7 written, evicted by 8, read again: one writeback, one real fill.
         let l = log(&[
@@ -398,8 +414,13 @@ mod tests {
             l.begin(command);
             for _ in 0..5000 {
                 x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                let stream =
-                    [Stream::Depth, Stream::Color, Stream::TriangleData, Stream::Texture][(x >> 60) as usize % 4];
+                let stream = [
+                    Stream::Depth,
+                    Stream::Color,
+                    Stream::TriangleData,
+                    Stream::Texture,
+                    Stream::GBuffer,
+                ][(x >> 60) as usize % 5];
                 l.touch(stream, (x >> 33) % 300, x >> 20 & 1 == 1);
             }
         }
@@ -408,6 +429,7 @@ mod tests {
             color: 12 * LINE_BYTES, // 3 sets: not a power of two
             triangle_data: LINE_BYTES,
             texture: 64 * LINE_BYTES,
+            gbuffer: 4096,
         };
         let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();
         let with = |threads| {

@@ -15,7 +15,9 @@ use crate::command::{Command, Job, Unit};
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
 use crate::raster::{rasterize, sample_position};
-use crate::scheme::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, ViewContext};
+use crate::scheme::{
+    Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, ViewContext, VisibleQuads,
+};
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
 
@@ -134,7 +136,7 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
             }
             Command::ShadeTile { view, tile } => {
                 if let Some(buffer) = buffers.get_mut(&(view, tile)) {
-                    shade_tile(ctx, buffer, scheme_job.as_mut(), &mut log, &mut out);
+                    shade_tile(ctx, tile, buffer, scheme_job.as_mut(), &mut log, &mut out);
                 }
             }
         }
@@ -161,6 +163,7 @@ fn geometry_command(
 ) {
     let prepass = matches!(command, Command::DepthPrepass(_));
     let shading = matches!(command, Command::Draw(_));
+    let visibility = matches!(command, Command::Visibility(_));
     let samples = buffer.samples;
     let v = unit.view as usize;
     let setup = &ctx.setups[v][unit.tri as usize];
@@ -225,7 +228,7 @@ fn geometry_command(
             log.touch(Stream::Depth, layout.depth_line(unit.view, x, y), wrote);
             depth_written |= wrote;
         }
-        if passed != 0 && shading {
+        if passed != 0 && (shading || visibility) {
             quads.push((
                 ShadeQuad {
                     x: q.x,
@@ -236,6 +239,21 @@ fn geometry_command(
             ));
         }
     });
+    if visibility && !scratch.quads.is_empty() {
+        let unit_ctx = UnitContext {
+            view_ctx: ctx.view(unit.view),
+            setup,
+            triangle,
+        };
+        let visible = VisibleQuads {
+            quads: &scratch.quads,
+            tile: unit.tile,
+            rect: buffer.rect,
+            samples,
+            layout,
+        };
+        out.account(v, log, |acc| scheme_job.visible_quads(&unit_ctx, &visible, acc));
+    }
     if shading {
         scratch.shade_quads.clear();
         scratch.shade_quads.extend(scratch.quads.iter().map(|q| q.0));
@@ -270,6 +288,7 @@ fn geometry_command(
 /// A screen pass over one tile: the scheme reads the resolved visibility and writes colour.
 fn shade_tile(
     ctx: &JobContext,
+    tile: u32,
     buffer: &mut SampleBuffer,
     scheme_job: &mut dyn SchemeJob,
     log: &mut AccessLog,
@@ -288,6 +307,7 @@ fn shade_tile(
     }
     let tile_ctx = TileContext {
         view_ctx: ctx.view(buffer.view),
+        tile,
         setups: ctx.setups[v],
         offsets: ctx.offsets,
         layout: ctx.layout,

@@ -103,6 +103,8 @@ pub struct FrameOutput {
     pub caches: CacheReport,
     pub lists: ListStats,
     pub shadow_pass: Option<ShadowPassStats>,
+    /// Bytes of the G-buffer of both views, when the scheme wrote one.
+    pub gbuffer_bytes: Option<u64>,
     /// Wall time of each stage of this frame.
     pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
@@ -217,6 +219,7 @@ pub fn run_frame(
         color: layout.color_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
+        gbuffer: layout.gbuffer_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
@@ -248,6 +251,7 @@ pub fn run_frame(
     FrameOutput {
         views,
         traffic,
+        gbuffer_bytes: caches.gbuffer.map(|_| 2 * layout.gbuffer_bytes()),
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),

@@ -3,11 +3,13 @@
 //! visibility receives each finished tile's samples. Both spend instructions through the
 //! cost model. A scheme never knows the scheduler's order beyond the commands it is given.
 
+mod deferred;
 pub mod multirate;
 mod per_pixel;
 pub mod registry;
 pub mod shading_cache;
 
+pub use deferred::Deferred;
 pub use multirate::{Multirate, MultirateConfig};
 pub use per_pixel::PerPixel;
 
@@ -158,6 +160,10 @@ pub trait SchemeJob {
     /// The scheduler starts a group of units that may share shading (a tile-pair sequence).
     fn begin_sequence(&mut self) {}
 
+    /// A `Visibility` unit's quads that passed the depth test (under
+    /// [`Passes::ShadeAfterVisibility`]): what a G-buffer pass writes.
+    fn visible_quads(&mut self, _ctx: &UnitContext, _visible: &VisibleQuads, _acc: &mut Accounting) {}
+
     /// A tile's visibility is final (every geometry command of the tile has run): a screen
     /// pass reads `tile`'s depth and ids and writes its colour.
     fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut SampleBuffer, _acc: &mut Accounting) {}
@@ -188,9 +194,22 @@ pub trait SchemeJob {
     }
 }
 
+/// The quads of one unit that passed the depth test in a visibility pass.
+pub struct VisibleQuads<'a> {
+    /// Each quad with its passing samples (bit `lane * samples + sample`).
+    pub quads: &'a [(ShadeQuad, u32)],
+    /// The tile (its index in the view's grid) and its rectangle.
+    pub tile: u32,
+    pub rect: crate::raster::Rect,
+    pub samples: usize,
+    pub layout: FramebufferLayout,
+}
+
 /// What a screen pass may read while shading one tile of one view.
 pub struct TileContext<'a> {
     pub view_ctx: ViewContext<'a>,
+    /// The tile's index in its view's grid.
+    pub tile: u32,
     /// The view's setup triangles, indexed by the tile's visibility ids.
     pub setups: &'a [SetupTriangle],
     /// Sample offsets of the pixel (MSAA pattern).

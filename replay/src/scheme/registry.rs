@@ -2,10 +2,10 @@
 //! reports, and builds it. Nothing outside this file matches on scheme names; adding a scheme
 //! is one module plus one line in [`SCHEMES`].
 
-use shadetrace_formats::Scene;
+use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{PerPixel, ShadingScheme};
+use super::{Deferred, PerPixel, ShadingScheme};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 5] = [
+pub const SCHEMES: [SchemeEntry; 6] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -74,7 +74,29 @@ pub const SCHEMES: [SchemeEntry; 5] = [
         build: |p, o| multirate::build(p.mode, o, Some(CacheSpace::Texture)),
         supports: multirate::supports_texel,
     },
+    SchemeEntry {
+        name: "deferred",
+        models:
+            "deferred shading: G-buffer (20 bytes per sample, normals octahedral 2x16), lighting per pixel and triangle",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| Box::new(Deferred),
+        supports: opaque_only,
+    },
 ];
+
+/// Deferred shading lights opaque surfaces only; blended and alpha-tested ones would need
+/// the forward pass after lighting that real renderers add (not modelled).
+fn opaque_only(scene: &Scene) -> Result<(), String> {
+    match scene.materials.iter().find(|m| m.alpha != AlphaMode::Opaque) {
+        Some(m) => Err(format!(
+            "deferred shading lights opaque surfaces only, and material `{}` is {:?}",
+            m.name, m.alpha
+        )),
+        None => Ok(()),
+    }
+}
 
 /// The registry entry of scheme `name`.
 pub fn scheme(name: &str) -> Option<&'static SchemeEntry> {

@@ -1,0 +1,65 @@
+//! `deferred`: a G-buffer pass, then lighting per pixel and triangle. Its pictures differ
+//! from `forward`'s only by the G-buffer's quantization; it reports the G-buffer's size,
+//! traffic and cache; under MSAA it lights each triangle of a pixel once.
+
+mod common;
+
+use common::{replay_into, trace};
+use serde_json::Value;
+
+fn replay(preset: &str, extra: &[&str]) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = vec!["--res", "160x180", "--frames", "0"];
+    args.extend_from_slice(extra);
+    replay_into(&trace("spheres"), preset, &args, None, &dir.path().join("out"))
+}
+
+#[test]
+fn deferred_reports_its_g_buffer_and_loses_only_quantization() {
+    let r = replay("deferred", &[]);
+    let frame = &r["frames"][0];
+    assert_eq!(
+        frame["gbuffer_bytes"],
+        2 * 160 * 180 * 20,
+        "20 bytes per sample, both views"
+    );
+    assert!(
+        frame["traffic"]["gbuffer"].as_u64().unwrap() > 0,
+        "{}",
+        frame["traffic"]
+    );
+    assert!(frame["caches"]["gbuffer"]["accesses"].as_u64().unwrap() > 0);
+    for view in frame["views"].as_array().unwrap() {
+        let cost = &view["cost"];
+        assert!(cost["gbuffer"]["groups"].as_u64().unwrap() > 0 && cost["fine"]["groups"].as_u64().unwrap() > 0);
+        // The lighting pass has no helper lanes: one lane per visible pixel at MSAA 1.
+        assert_eq!(cost["fine"]["useful_lanes"], view["raster"]["pixels_covered"]);
+        let ssim = view["quality"]["ssim"].as_f64().unwrap();
+        assert!(
+            ssim > 0.999 && ssim < 1.0,
+            "albedo and normal quantization show: {ssim}"
+        );
+    }
+    // Forward has no G-buffer and reports none.
+    let forward = replay("forward", &["--no-reference"]);
+    assert!(forward["frames"][0].get("gbuffer_bytes").is_none());
+    assert!(forward["frames"][0]["caches"].get("gbuffer").is_none());
+    assert!(forward["frames"][0]["traffic"].get("gbuffer").is_none());
+}
+
+#[test]
+fn msaa_lights_each_triangle_of_a_pixel_once() {
+    let r = replay("deferred", &["--msaa", "4"]);
+    for view in r["frames"][0]["views"].as_array().unwrap() {
+        let lanes = view["cost"]["fine"]["useful_lanes"].as_u64().unwrap();
+        let (pixels, samples) = (
+            view["raster"]["pixels_covered"].as_u64().unwrap(),
+            view["raster"]["samples_passed"].as_u64().unwrap(),
+        );
+        assert!(
+            lanes >= pixels && lanes < samples,
+            "{pixels} pixels, {lanes} lit, {samples} samples"
+        );
+    }
+    assert_eq!(r["frames"][0]["gbuffer_bytes"], 2 * 160 * 180 * 4 * 20);
+}
