@@ -45,6 +45,16 @@ pub struct LightingInputs {
     pub material: u32,
 }
 
+/// What every light's term at one point shares: the inputs, the material, the (possibly
+/// flipped) normal and the reflection vector.
+#[derive(Clone, Copy)]
+struct PointInputs<'a> {
+    inp: &'a LightingInputs,
+    material: &'a Material,
+    n: Vec3,
+    r: Vec3,
+}
+
 /// One light's contribution at a point: `radiance * scale * (diffuse + specular)`.
 /// `scale` is the shadow visibility (shadowed light), the distance falloff (local lights) or 1.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -72,14 +82,37 @@ impl ShaderEnv<'_> {
     /// Coarse-able lighting (radiance reaching the eye per unit albedo): every effect
     /// evaluated here, combined.
     pub fn lighting(&self, inp: &LightingInputs, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec3 {
+        self.lighting_of(inp, None, blocks, log)
+    }
+
+    /// [`ShaderEnv::lighting`] of the lights in `list` (indices, ascending) only: a culled
+    /// light list. Lights left out contribute nothing, so a list holding every light that
+    /// reaches the point gives the same bits as the full loop.
+    pub fn lighting_listed(
+        &self,
+        inp: &LightingInputs,
+        list: &[u32],
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Vec3 {
+        self.lighting_of(inp, Some(list), blocks, log)
+    }
+
+    fn lighting_of(
+        &self,
+        inp: &LightingInputs,
+        list: Option<&[u32]>,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Vec3 {
         let mut terms = [LightTerm::default(); 8];
         if self.lights.len() <= terms.len() {
             let terms = &mut terms[..self.lights.len()];
-            self.light_terms(inp, Effects::all(), terms, blocks, log);
+            self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
             self.combine(terms)
         } else {
             let mut terms = vec![LightTerm::default(); self.lights.len()];
-            self.light_terms(inp, Effects::all(), &mut terms, blocks, log);
+            self.light_terms_of(inp, Effects::all(), list, &mut terms, blocks, log);
             self.combine(&terms)
         }
     }
@@ -94,6 +127,20 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) {
+        self.light_terms_of(inp, effects, None, terms, blocks, log)
+    }
+
+    /// [`ShaderEnv::light_terms`] of the lights in `list` only (every light when None); the
+    /// terms of the others are left untouched.
+    fn light_terms_of(
+        &self,
+        inp: &LightingInputs,
+        effects: Effects,
+        list: Option<&[u32]>,
+        terms: &mut [LightTerm],
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) {
         blocks.take(Block::CoarseSetup);
         let material = &self.materials[inp.material as usize];
         let v = (inp.eye - inp.position).normalize_or(Vec3::Z);
@@ -102,87 +149,111 @@ impl ShaderEnv<'_> {
             n = -n;
         }
         let r = (2.0 * n.dot(v) * n - v).normalize_or(n);
-        for (k, light) in self.lights.iter().enumerate() {
-            let flags = &mut blocks.lights[k];
-            let term = &mut terms[k];
-            match light.kind {
-                LightKind::Directional { direction } => {
-                    let l = -direction.normalize_or(Vec3::NEG_Y);
-                    let n_dot_l = n.dot(l);
-                    let lit = n_dot_l > 0.0;
-                    if effects.contains(Effects::DIFFUSE) {
-                        *flags |= LightBlocks::DIFFUSE;
-                        term.diffuse = if lit { n_dot_l } else { 0.0 };
-                        if !light.shadowed {
-                            term.scale = 1.0;
-                        }
-                    }
-                    // The specular and shadow effects run on every fragment, facing the
-                    // light or not, as in He et al.'s shaders (Fig. 9: no test of N·L), so a
-                    // pixel costs the same on either side; what they add stays zero on the
-                    // unlit side.
-                    if effects.contains(Effects::SPECULAR) {
-                        *flags |= LightBlocks::SPECULAR;
-                        term.specular = if lit {
-                            material.specular_strength * phong(r.dot(l), material.specular_exponent)
-                        } else {
-                            0.0
-                        };
-                    }
-                    if effects.contains(Effects::SHADOW) && light.shadowed {
-                        term.scale = match self.shadow {
-                            Some(map) => {
-                                *flags |= LightBlocks::SHADOW;
-                                map.pcf(inp.position, n_dot_l, log)
-                            }
-                            None => 1.0,
-                        };
+        let point = PointInputs { inp, material, n, r };
+        match list {
+            None => {
+                for k in 0..self.lights.len() {
+                    self.light_term(k, &point, effects, &mut terms[k], &mut blocks.lights[k], log);
+                }
+            }
+            Some(list) => {
+                for &k in list {
+                    let k = k as usize;
+                    self.light_term(k, &point, effects, &mut terms[k], &mut blocks.lights[k], log);
+                }
+            }
+        }
+    }
+
+    /// Light `k`'s term at one point.
+    fn light_term(
+        &self,
+        k: usize,
+        point: &PointInputs,
+        effects: Effects,
+        term: &mut LightTerm,
+        flags: &mut LightBlocks,
+        log: &mut AccessLog,
+    ) {
+        let PointInputs { inp, material, n, r } = *point;
+        let light = &self.lights[k];
+        match light.kind {
+            LightKind::Directional { direction } => {
+                let l = -direction.normalize_or(Vec3::NEG_Y);
+                let n_dot_l = n.dot(l);
+                let lit = n_dot_l > 0.0;
+                if effects.contains(Effects::DIFFUSE) {
+                    *flags |= LightBlocks::DIFFUSE;
+                    term.diffuse = if lit { n_dot_l } else { 0.0 };
+                    if !light.shadowed {
+                        term.scale = 1.0;
                     }
                 }
-                LightKind::Point { position, range } | LightKind::Spot { position, range, .. } => {
-                    if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
-                        continue;
+                // The specular and shadow effects run on every fragment, facing the
+                // light or not, as in He et al.'s shaders (Fig. 9: no test of N·L), so a
+                // pixel costs the same on either side; what they add stays zero on the
+                // unlit side.
+                if effects.contains(Effects::SPECULAR) {
+                    *flags |= LightBlocks::SPECULAR;
+                    term.specular = if lit {
+                        material.specular_strength * phong(r.dot(l), material.specular_exponent)
+                    } else {
+                        0.0
+                    };
+                }
+                if effects.contains(Effects::SHADOW) && light.shadowed {
+                    term.scale = match self.shadow {
+                        Some(map) => {
+                            *flags |= LightBlocks::SHADOW;
+                            map.pcf(inp.position, n_dot_l, log)
+                        }
+                        None => 1.0,
+                    };
+                }
+            }
+            LightKind::Point { position, range } | LightKind::Spot { position, range, .. } => {
+                if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
+                    return;
+                }
+                let to_light = position - inp.position;
+                let d2 = to_light.length_squared();
+                let window = match range {
+                    Some(r) if r > 0.0 => {
+                        let x = d2 / (r * r);
+                        ((1.0 - x * x).max(0.0)).powi(2)
                     }
-                    let to_light = position - inp.position;
-                    let d2 = to_light.length_squared();
-                    let window = match range {
-                        Some(r) if r > 0.0 => {
-                            let x = d2 / (r * r);
-                            ((1.0 - x * x).max(0.0)).powi(2)
+                    _ => 1.0,
+                };
+                if window <= 0.0 {
+                    *term = LightTerm::default();
+                    return;
+                }
+                *flags |= LightBlocks::LOCAL;
+                let l = to_light.normalize_or(Vec3::Y);
+                let n_dot_l = n.dot(l).max(0.0);
+                if effects.contains(Effects::DIFFUSE) {
+                    let cone = match light.kind {
+                        LightKind::Spot {
+                            direction,
+                            inner_cone,
+                            outer_cone,
+                            ..
+                        } => {
+                            let cos = (-l).dot(direction.normalize_or(Vec3::NEG_Z));
+                            let (ci, co) = (libm::cosf(inner_cone), libm::cosf(outer_cone));
+                            ((cos - co) / (ci - co).max(1e-4)).clamp(0.0, 1.0)
                         }
                         _ => 1.0,
                     };
-                    if window <= 0.0 {
-                        *term = LightTerm::default();
-                        continue;
-                    }
-                    *flags |= LightBlocks::LOCAL;
-                    let l = to_light.normalize_or(Vec3::Y);
-                    let n_dot_l = n.dot(l).max(0.0);
-                    if effects.contains(Effects::DIFFUSE) {
-                        let cone = match light.kind {
-                            LightKind::Spot {
-                                direction,
-                                inner_cone,
-                                outer_cone,
-                                ..
-                            } => {
-                                let cos = (-l).dot(direction.normalize_or(Vec3::NEG_Z));
-                                let (ci, co) = (libm::cosf(inner_cone), libm::cosf(outer_cone));
-                                ((cos - co) / (ci - co).max(1e-4)).clamp(0.0, 1.0)
-                            }
-                            _ => 1.0,
-                        };
-                        term.scale = window * cone / d2.max(1e-4);
-                        term.diffuse = n_dot_l;
-                    }
-                    if effects.contains(Effects::SPECULAR) {
-                        term.specular = if n_dot_l > 0.0 {
-                            material.specular_strength * phong(r.dot(l), material.specular_exponent)
-                        } else {
-                            0.0
-                        };
-                    }
+                    term.scale = window * cone / d2.max(1e-4);
+                    term.diffuse = n_dot_l;
+                }
+                if effects.contains(Effects::SPECULAR) {
+                    term.specular = if n_dot_l > 0.0 {
+                        material.specular_strength * phong(r.dot(l), material.specular_exponent)
+                    } else {
+                        0.0
+                    };
                 }
             }
         }
