@@ -18,6 +18,8 @@ bitflags::bitflags! {
         const SPECULAR = 2;
         const SHADOW = 4;
         const LOCAL = 8;
+        /// The light was considered (its range test ran), in range or not.
+        const TEST = 16;
     }
 }
 
@@ -73,6 +75,7 @@ impl BlockSet {
                 (LightBlocks::SPECULAR, Block::Specular),
                 (LightBlocks::SHADOW, Block::Shadow),
                 (LightBlocks::LOCAL, Block::LocalLight),
+                (LightBlocks::TEST, Block::LightTest),
             ] {
                 if flags.contains(flag) {
                     add(block.cost());
@@ -84,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 18] = [
+const FIXED_BLOCKS: [Block; 19] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -103,6 +106,7 @@ const FIXED_BLOCKS: [Block; 18] = [
     Block::ReuseCrossView,
     Block::GBufferWrite,
     Block::GBufferRead,
+    Block::LightTest,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

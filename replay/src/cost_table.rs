@@ -61,6 +61,9 @@ pub enum Block {
     /// Deferred lighting pass: four G-buffer fetches (depth, normal, albedo, ids), octahedral
     /// decode, position from depth.
     GBufferRead,
+    /// Coarse-able: one point or spot light considered, in range or not: the vector to it,
+    /// its squared length against the squared range, the branch. What a light list saves.
+    LightTest,
 }
 
 impl Block {
@@ -75,6 +78,7 @@ impl Block {
             Block::Specular => (12, 0),
             Block::Shadow => (53, 25),
             Block::LocalLight => (22, 0),
+            Block::LightTest => (5, 0),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

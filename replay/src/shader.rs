@@ -215,6 +215,7 @@ impl ShaderEnv<'_> {
                 if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
                     return;
                 }
+                *flags |= LightBlocks::TEST;
                 let to_light = position - inp.position;
                 let d2 = to_light.length_squared();
                 let window = match range {
