@@ -337,8 +337,11 @@ pub fn arena() -> Built {
 }
 
 /// A closed room lit by 48 coloured point lights and no sun: many unshadowed lights, so
-/// replay must skip the shadow pass entirely.
-pub fn light_room() -> Built {
+/// replay must skip the shadow pass entirely. With `lights = Some(n)`: n lights on a 3D grid
+/// filling the room, their range shrunk as n grows (`4 m * cbrt(48 / n)`, so a point is in
+/// range of about as many lights as with 48) and their intensity with its square (the same
+/// brightness): the scene of a light-count study, where light lists pay off.
+pub fn light_room(count: Option<u32>) -> Built {
     let mut room = MeshBuilder::new("room", 0);
     // Inward faces, each wall split 8x8 so light falloff has vertices to work with.
     room.cuboid(Vec3::new(-4.0, 0.0, -4.0), Vec3::new(4.0, 3.0, 4.0), true, 8);
@@ -348,26 +351,43 @@ pub fn light_room() -> Built {
     let mut balls = MeshBuilder::new("balls", 2);
     cube_sphere(&mut balls, Vec3::new(0.0, 0.6, 0.0), 0.6, 6, None);
     cube_sphere(&mut balls, Vec3::new(2.2, 1.3, -2.0), 0.4, 6, None);
-    let mut lights = Vec::new();
     let palette = [
         Vec3::new(1.0, 0.4, 0.3),
         Vec3::new(0.3, 1.0, 0.4),
         Vec3::new(0.3, 0.5, 1.0),
         Vec3::new(1.0, 0.9, 0.6),
     ];
-    for j in 0..6 {
-        for i in 0..8 {
-            let position = Vec3::new(-3.5 + i as f32, 2.7, -3.2 + 1.28 * j as f32);
-            lights.push(Light {
-                name: format!("lamp-{j}-{i}"),
-                kind: LightKind::Point {
-                    position,
-                    range: Some(4.0),
-                },
-                color: palette[(i + j) % palette.len()],
-                intensity: 1.5,
-                shadowed: false,
-            });
+    let lamp = |name: String, position: Vec3, range: f32, intensity: f32, colour: usize| Light {
+        name,
+        kind: LightKind::Point {
+            position,
+            range: Some(range),
+        },
+        color: palette[colour % palette.len()],
+        intensity,
+        shadowed: false,
+    };
+    let mut lights = Vec::new();
+    match count {
+        None => {
+            for j in 0..6 {
+                for i in 0..8 {
+                    let position = Vec3::new(-3.5 + i as f32, 2.7, -3.2 + 1.28 * j as f32);
+                    lights.push(lamp(format!("lamp-{j}-{i}"), position, 4.0, 1.5, i + j));
+                }
+            }
+        }
+        Some(n) => {
+            // The smallest cube grid holding n points, filled x fastest, then z, then y.
+            let side = (1..).find(|s: &u32| s * s * s >= n).unwrap_or(1);
+            let shrink = libm::cbrtf(48.0 / n as f32);
+            let at = |i: u32, lo: f32, hi: f32| lo + (hi - lo) * (i as f32 + 0.5) / side as f32;
+            for k in 0..n {
+                let (x, z, y) = (k % side, k / side % side, k / (side * side));
+                let position = Vec3::new(at(x, -4.0, 4.0), at(y, 0.2, 2.9), at(z, -4.0, 4.0));
+                let name = format!("lamp-{k}");
+                lights.push(lamp(name, position, 4.0 * shrink, 1.5 * shrink * shrink, (x + y + z) as usize));
+            }
         }
     }
     Built {
