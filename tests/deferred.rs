@@ -63,3 +63,49 @@ fn msaa_lights_each_triangle_of_a_pixel_once() {
     }
     assert_eq!(r["frames"][0]["gbuffer_bytes"], 2 * 160 * 180 * 4 * 20);
 }
+
+/// Light lists are conservative: tiled and clustered light the same pixels as `deferred`,
+/// and with many short-ranged lights they cost less, paying for lists they build and store.
+#[test]
+fn light_lists_keep_the_pixels_and_cut_the_lighting() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("lights.strace").display().to_string();
+    common::shadetrace_ok(
+        &[
+            "capture",
+            "builtin:light-room?lights=256",
+            "-o",
+            &trace,
+            "--frames",
+            "1",
+            "--quiet",
+        ],
+        None,
+    );
+    let run = |preset: &str| {
+        let out = dir.path().join(preset);
+        let r = replay_into(&trace, preset, &["--res", "128x144"], None, &out);
+        (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+    };
+    let (deferred, pixels) = run("deferred");
+    // The lighting pass's issued ALU instructions (left view).
+    let issued = |r: &Value| r["frames"][0]["views"][0]["cost"]["fine"]["alu"].as_u64().unwrap();
+    for preset in ["tiled", "clustered"] {
+        let (r, p) = run(preset);
+        assert!(p == pixels, "{preset} lights other pixels than deferred");
+        let frame = &r["frames"][0];
+        assert!(
+            frame["traffic"]["light_lists"].as_u64().unwrap() > 0,
+            "{preset}: {}",
+            frame["traffic"]
+        );
+        assert!(frame["views"][0]["cost"]["light_lists"]["groups"].as_u64().unwrap() > 0);
+        assert!(
+            issued(&r) * 5 < issued(&deferred) * 4,
+            "{preset}: lighting {} vs {}",
+            issued(&r),
+            issued(&deferred)
+        );
+    }
+    assert!(deferred["frames"][0]["traffic"].get("light_lists").is_none());
+}

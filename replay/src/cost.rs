@@ -87,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 19] = [
+const FIXED_BLOCKS: [Block; 22] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -107,6 +107,9 @@ const FIXED_BLOCKS: [Block; 19] = [
     Block::GBufferWrite,
     Block::GBufferRead,
     Block::LightTest,
+    Block::LightCull,
+    Block::DepthBounds,
+    Block::ClusterLookup,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

@@ -64,6 +64,14 @@ pub enum Block {
     /// Coarse-able: one point or spot light considered, in range or not: the vector to it,
     /// its squared length against the squared range, the branch. What a light list saves.
     LightTest,
+    /// Light-list build, one lane per light and region: the light's sphere against the six
+    /// planes of a tile's or cluster's frustum, and the append to the list.
+    LightCull,
+    /// Tiled shading: a pixel's samples into the tile's depth bounds (min, max, reduction).
+    DepthBounds,
+    /// Clustered shading: a pixel's cluster from its depth (view distance, log, slice) and
+    /// the fetch of the cluster's list header.
+    ClusterLookup,
 }
 
 impl Block {
@@ -79,6 +87,9 @@ impl Block {
             Block::Shadow => (53, 25),
             Block::LocalLight => (22, 0),
             Block::LightTest => (5, 0),
+            Block::LightCull => (26, 0),
+            Block::DepthBounds => (4, 0),
+            Block::ClusterLookup => (8, 0),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

@@ -67,7 +67,7 @@ const fn without_small_triangle_path(preset: Preset) -> Preset {
 /// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
 /// shading of small blocks would bypass. He et al.'s own presets keep their paper's
 /// coverage-bbox samples, small-triangle path and immediate pipeline.
-pub const PRESETS: [Preset; 13] = [
+pub const PRESETS: [Preset; 15] = [
     preset(
         "forward",
         "immediate",
@@ -177,6 +177,18 @@ pub const PRESETS: [Preset; 13] = [
         "immediate",
         "deferred",
         "deferred shading (RTR4 20.1): a 20-byte G-buffer pass, then a lighting pass per tile",
+    ),
+    preset(
+        "tiled",
+        "immediate",
+        "tiled",
+        "tiled deferred shading (RTR4 20.3): per 16x16 tile a light list from its depth bounds",
+    ),
+    preset(
+        "clustered",
+        "immediate",
+        "clustered",
+        "clustered deferred shading (RTR4 20.4): light lists per 64x64 px x 16 depth slices",
     ),
 ];
 

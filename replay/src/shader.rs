@@ -152,8 +152,8 @@ impl ShaderEnv<'_> {
         let point = PointInputs { inp, material, n, r };
         match list {
             None => {
-                for k in 0..self.lights.len() {
-                    self.light_term(k, &point, effects, &mut terms[k], &mut blocks.lights[k], log);
+                for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
+                    self.light_term(k, &point, effects, term, flags, log);
                 }
             }
             Some(list) => {

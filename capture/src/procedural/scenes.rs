@@ -386,7 +386,13 @@ pub fn light_room(count: Option<u32>) -> Built {
                 let (x, z, y) = (k % side, k / side % side, k / (side * side));
                 let position = Vec3::new(at(x, -4.0, 4.0), at(y, 0.2, 2.9), at(z, -4.0, 4.0));
                 let name = format!("lamp-{k}");
-                lights.push(lamp(name, position, 4.0 * shrink, 1.5 * shrink * shrink, (x + y + z) as usize));
+                lights.push(lamp(
+                    name,
+                    position,
+                    4.0 * shrink,
+                    1.5 * shrink * shrink,
+                    (x + y + z) as usize,
+                ));
             }
         }
     }

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3, Vec4};
-use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost};
+use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost, Traffic};
 use shadetrace_formats::AlphaMode;
 
 use super::blend::{merge, MergeInput};
@@ -32,6 +32,8 @@ pub struct JobContext<'a> {
     pub env: &'a ShaderEnv<'a>,
     pub eyes: [Vec3; 2],
     pub view_projections: [Mat4; 2],
+    /// The rig's near and far planes (view-space distances).
+    pub depth_range: (f32, f32),
     pub layout: FramebufferLayout,
     pub offsets: &'static [[i64; 2]],
     pub simd_width: u32,
@@ -56,6 +58,8 @@ pub struct JobOutput {
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
     pub buffers: Vec<SampleBuffer>,
+    /// DRAM bytes that bypass the caches (light lists written and read once).
+    pub traffic: Traffic,
 }
 
 impl JobContext<'_> {
@@ -66,6 +70,7 @@ impl JobContext<'_> {
             eye: self.eyes[view as usize],
             view_projections: self.view_projections,
             eyes: self.eyes,
+            depth_range: self.depth_range,
             width: self.grid.width,
             height: self.grid.height,
             geometry: self.geometry,
@@ -85,6 +90,7 @@ impl JobOutput {
             refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
+            traffic: Traffic::default(),
         }
     }
 
@@ -93,6 +99,7 @@ impl JobOutput {
     pub fn account<R>(&mut self, v: usize, log: &mut AccessLog, f: impl FnOnce(&mut Accounting) -> R) -> R {
         let heat = &mut self.heat;
         let refinement = &mut self.refinement;
+        let traffic = &mut self.traffic;
         f(&mut Accounting {
             cost: &mut self.cost[v],
             log,
@@ -105,6 +112,7 @@ impl JobOutput {
                 _ => refinement.push((pixel, bits)),
             },
             cache: &mut self.cache[v],
+            traffic: &mut |class, bytes| traffic.add_bytes(class, bytes),
         })
     }
 }

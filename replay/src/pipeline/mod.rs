@@ -196,6 +196,7 @@ pub fn run_frame(
         env: &env,
         eyes: Eye::BOTH.map(|eye| rig.eye_position(eye)),
         view_projections: Eye::BOTH.map(|eye| rig.view_projection(eye)),
+        depth_range: (rig.near, rig.far),
         layout,
         offsets: sample_offsets(opts.msaa),
         simd_width: opts.simd_width,
@@ -223,6 +224,10 @@ pub fn run_frame(
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
+    // Bytes the jobs moved past the caches (light lists), in job order.
+    for out in &outputs {
+        traffic.add(&out.traffic);
+    }
     traffic.add_bytes(INDICES, schedule.lists.index_bytes);
     if scheduler.stores_vertex_output() {
         traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);

@@ -12,29 +12,62 @@
 //! of pixels: no helper lanes. The position is the triangle's at the pixel centre, which the
 //! 32-bit linear depth reconstructs to within float rounding.
 //!
+//! `tiled` and `clustered` (RTR4 §20.3-20.4) light from culled light lists
+//! ([`light_lists`](super::light_lists)): per 16x16 screen tile from the depth bounds of its
+//! samples, or per cluster (64x64 px x 16 exponential depth slices, every cluster built, by
+//! the raster tile holding its column's first pixel) and looked up per pixel. A list is
+//! written to memory once and read once per tile that uses it (`light_lists` traffic; a
+//! compute shader that fuses culling and lighting would keep a tile's list on chip), and its
+//! build is the `light_lists` cost stage. Lists are conservative, so the pixels equal
+//! `deferred`'s.
+//!
 //! [`GBUFFER_SAMPLE_BYTES`]: crate::memory::GBUFFER_SAMPLE_BYTES
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{Vec3, Vec4};
+use shadetrace_formats::results::StageCost;
 
+use super::light_lists::{
+    slice_depths, slice_of, LightCuller, CLUSTER_SLICES, CLUSTER_TILE, LIST_ENTRY_BYTES, LIST_HEADER_BYTES, TILED_TILE,
+};
 use super::{Accounting, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads};
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
 use crate::memory::Stream;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
+use crate::raster::Rect;
 use crate::shader::{compose, LightingInputs};
 use crate::srgb::linear_to_srgb8;
 use crate::texture::srgb_to_linear;
 
 /// Cost stage of the G-buffer pass (the lighting pass is [`FINE`]).
 pub const GBUFFER: &str = "gbuffer";
+/// Cost stage and traffic class of light-list building and storage.
+pub const LIGHT_LISTS: &str = "light_lists";
 
-pub struct Deferred;
+/// Which lights a pixel's lighting loops over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lists {
+    /// Every light.
+    None,
+    /// The list of the pixel's 16x16 screen tile.
+    Tiled,
+    /// The list of the pixel's cluster.
+    Clustered,
+}
+
+pub struct Deferred {
+    pub lists: Lists,
+}
 
 impl ShadingScheme for Deferred {
     fn name(&self) -> &'static str {
-        "deferred"
+        match self.lists {
+            Lists::None => "deferred",
+            Lists::Tiled => "tiled",
+            Lists::Clustered => "clustered",
+        }
     }
 
     fn passes(&self) -> Passes {
@@ -43,10 +76,14 @@ impl ShadingScheme for Deferred {
 
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob> {
         Box::new(DeferredJob {
+            lists: self.lists,
             packer: SimdPacker::new(simd_width, lights),
             blocks: BlockSet::new(lights),
             tiles: BTreeMap::new(),
             shaded: Vec::new(),
+            culler: None,
+            list: Vec::new(),
+            clusters: BTreeMap::new(),
         })
     }
 }
@@ -59,12 +96,19 @@ struct GSample {
 }
 
 struct DeferredJob {
+    lists: Lists,
     packer: SimdPacker,
     blocks: BlockSet,
     /// The G-buffer of every tile this job touches, by (view, tile), in the tile's sample order.
     tiles: BTreeMap<(u8, u32), Vec<GSample>>,
     /// Triangles already lit in the current pixel (MSAA deduplication).
     shaded: Vec<(u32, Vec4)>,
+    /// The frame's lights as cull volumes (made at the job's first tile).
+    culler: Option<LightCuller>,
+    /// The current tiled list.
+    list: Vec<u32>,
+    /// Cluster lists by (view, column x, column y, slice), made as pixels need them.
+    clusters: BTreeMap<(u8, u32, u32, u32), Vec<u32>>,
 }
 
 impl SchemeJob for DeferredJob {
@@ -114,12 +158,74 @@ impl SchemeJob for DeferredJob {
         let Some(gbuffer) = self.tiles.remove(&(buffer.view, ctx.tile)) else {
             return;
         };
+        let culler = self.culler.get_or_insert_with(|| LightCuller::new(ctx.env.lights));
+        let rect = buffer.rect;
+        match self.lists {
+            Lists::None => self.light(ctx, buffer, &gbuffer, rect, acc),
+            Lists::Tiled => {
+                let mut list = std::mem::take(&mut self.list);
+                for y0 in (rect.y0..rect.y1).step_by(TILED_TILE as usize) {
+                    for x0 in (rect.x0..rect.x1).step_by(TILED_TILE as usize) {
+                        let sub = Rect {
+                            x0,
+                            y0,
+                            x1: (x0 + TILED_TILE).min(rect.x1),
+                            y1: (y0 + TILED_TILE).min(rect.y1),
+                        };
+                        let Some(bounds) = self.depth_bounds(buffer, sub, acc) else {
+                            continue;
+                        };
+                        let culler = self.culler.as_ref().unwrap_or_else(|| unreachable!("made above"));
+                        culler.cull(&view_projection(ctx), (ctx.width, ctx.height), sub, bounds, &mut list);
+                        self.charge_culling(culler.tested(), acc);
+                        (acc.traffic)(LIGHT_LISTS, 2 * list_bytes(list.len()));
+                        self.list = list;
+                        self.light(ctx, buffer, &gbuffer, sub, acc);
+                        list = std::mem::take(&mut self.list);
+                    }
+                }
+                self.list = list;
+            }
+            Lists::Clustered => {
+                let tested = culler.tested();
+                // The raster tile holding a column's first pixel builds all its clusters (a
+                // column whose first tile holds no geometry, and so has no tile pass, goes
+                // uncharged).
+                let columns = |a: u32, b: u32| a.div_ceil(CLUSTER_TILE)..b.div_ceil(CLUSTER_TILE);
+                for cy in columns(rect.y0, rect.y1) {
+                    for cx in columns(rect.x0, rect.x1) {
+                        for slice in 0..CLUSTER_SLICES {
+                            let n = self.cluster(ctx, buffer.view, cx, cy, slice).len();
+                            (acc.traffic)(LIGHT_LISTS, list_bytes(n));
+                            self.charge_culling(tested, acc);
+                        }
+                    }
+                }
+                self.light(ctx, buffer, &gbuffer, rect, acc);
+            }
+        }
+    }
+}
+
+impl DeferredJob {
+    /// Lights the pixels of `rect` (inside `buffer`) from the G-buffer: per pixel, each
+    /// distinct triangle among its samples once, with every light, the current tiled list or
+    /// the sample's cluster list.
+    fn light(
+        &mut self,
+        ctx: &TileContext,
+        buffer: &mut SampleBuffer,
+        gbuffer: &[GSample],
+        rect: Rect,
+        acc: &mut Accounting,
+    ) {
         let samples = buffer.samples;
-        let stage = acc.cost.stage_mut(FINE);
-        let (width, rect) = (buffer.width(), buffer.rect);
+        let (width, origin) = (buffer.width(), (buffer.rect.x0, buffer.rect.y0));
+        // Cluster lists read by this tile, each once.
+        let mut read: BTreeSet<(u32, u32, u32)> = BTreeSet::new();
         for y in rect.y0..rect.y1 {
             for x in rect.x0..rect.x1 {
-                let first = ((y - rect.y0) * width + (x - rect.x0)) as usize * samples;
+                let first = ((y - origin.1) * width + (x - origin.0)) as usize * samples;
                 if buffer.tri[first..first + samples].iter().all(|&t| t == NO_PRIMITIVE) {
                     continue;
                 }
@@ -142,17 +248,32 @@ impl SchemeJob for DeferredJob {
                     let g = gbuffer[i];
                     self.blocks.clear();
                     self.blocks.take(Block::GBufferRead);
-                    let lighting = ctx.env.lighting(
-                        &LightingInputs {
-                            position: unit.attributes(x, y).position,
-                            normal: octahedral_decode(g.normal),
-                            eye: ctx.eye,
-                            material: unit.triangle.material,
-                        },
-                        &mut self.blocks,
-                        acc.log,
-                    );
+                    let inputs = LightingInputs {
+                        position: unit.attributes(x, y).position,
+                        normal: octahedral_decode(g.normal),
+                        eye: ctx.eye,
+                        material: unit.triangle.material,
+                    };
+                    let lighting = match self.lists {
+                        Lists::None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
+                        Lists::Tiled => ctx.env.lighting_listed(&inputs, &self.list, &mut self.blocks, acc.log),
+                        Lists::Clustered => {
+                            self.blocks.take(Block::ClusterLookup);
+                            let key = (
+                                x / CLUSTER_TILE,
+                                y / CLUSTER_TILE,
+                                slice_of(buffer.depth[i], ctx.depth_range),
+                            );
+                            if read.insert(key) {
+                                let n = self.cluster(ctx, buffer.view, key.0, key.1, key.2).len();
+                                (acc.traffic)(LIGHT_LISTS, list_bytes(n));
+                            }
+                            let list = self.cluster(ctx, buffer.view, key.0, key.1, key.2).to_vec();
+                            ctx.env.lighting_listed(&inputs, &list, &mut self.blocks, acc.log)
+                        }
+                    };
                     let colour = compose(decode_albedo(g.albedo), lighting, &mut self.blocks);
+                    let stage = acc.cost.stage_mut(FINE);
                     self.packer
                         .lane(&self.blocks, true, unit.pixel_id(x, y), stage, acc.heat);
                     self.shaded.push((tri, colour));
@@ -160,8 +281,75 @@ impl SchemeJob for DeferredJob {
                 }
             }
         }
-        self.packer.flush(stage, acc.heat);
+        self.packer.flush(acc.cost.stage_mut(FINE), acc.heat);
     }
+
+    /// The NDC depth bounds of the covered samples of `rect`, charging the reduction (one
+    /// lane per pixel); None when no sample is covered.
+    fn depth_bounds(&mut self, buffer: &SampleBuffer, rect: Rect, acc: &mut Accounting) -> Option<(f32, f32)> {
+        let samples = buffer.samples;
+        let mut bounds: Option<(f32, f32)> = None;
+        let stage = acc.cost.stage_mut(LIGHT_LISTS);
+        self.blocks.clear();
+        self.blocks.take(Block::DepthBounds);
+        for y in rect.y0..rect.y1 {
+            for x in rect.x0..rect.x1 {
+                let first = buffer.index(x, y, 0);
+                for i in first..first + samples {
+                    if buffer.tri[i] != NO_PRIMITIVE {
+                        let z = buffer.depth[i];
+                        bounds = Some(bounds.map_or((z, z), |(a, b)| (a.min(z), b.max(z))));
+                    }
+                }
+                self.packer.lane(&self.blocks, true, u32::MAX, stage, &mut |_, _| {});
+            }
+        }
+        self.packer.flush(stage, &mut |_, _| {});
+        bounds
+    }
+
+    /// One list build's cost: a lane per light tested.
+    fn charge_culling(&mut self, tested: usize, acc: &mut Accounting) {
+        let stage: &mut StageCost = acc.cost.stage_mut(LIGHT_LISTS);
+        self.blocks.clear();
+        self.blocks.take(Block::LightCull);
+        for _ in 0..tested {
+            self.packer.lane(&self.blocks, true, u32::MAX, stage, &mut |_, _| {});
+        }
+        self.packer.flush(stage, &mut |_, _| {});
+    }
+
+    /// The list of cluster (`cx`, `cy`, `slice`) of `view`, made on first use.
+    fn cluster(&mut self, ctx: &TileContext, view: u8, cx: u32, cy: u32, slice: u32) -> &[u32] {
+        let culler = self.culler.get_or_insert_with(|| LightCuller::new(ctx.env.lights));
+        self.clusters.entry((view, cx, cy, slice)).or_insert_with(|| {
+            let rect = Rect {
+                x0: cx * CLUSTER_TILE,
+                y0: cy * CLUSTER_TILE,
+                x1: ((cx + 1) * CLUSTER_TILE).min(ctx.width),
+                y1: ((cy + 1) * CLUSTER_TILE).min(ctx.height),
+            };
+            let mut list = Vec::new();
+            culler.cull(
+                &view_projection(ctx),
+                (ctx.width, ctx.height),
+                rect,
+                slice_depths(slice, ctx.depth_range),
+                &mut list,
+            );
+            list
+        })
+    }
+}
+
+/// The world-to-clip matrix of the tile's view.
+fn view_projection(ctx: &TileContext) -> glam::Mat4 {
+    ctx.view_projections[ctx.view as usize]
+}
+
+/// Bytes of a light list of `entries` lights.
+fn list_bytes(entries: usize) -> u64 {
+    LIST_HEADER_BYTES + LIST_ENTRY_BYTES * entries as u64
 }
 
 /// Albedo as the G-buffer stores it: sRGB-encoded colour, linear alpha, 8 bits each.

@@ -4,12 +4,13 @@
 //! cost model. A scheme never knows the scheduler's order beyond the commands it is given.
 
 mod deferred;
+mod light_lists;
 pub mod multirate;
 mod per_pixel;
 pub mod registry;
 pub mod shading_cache;
 
-pub use deferred::Deferred;
+pub use deferred::{Deferred, Lists};
 pub use multirate::{Multirate, MultirateConfig};
 pub use per_pixel::PerPixel;
 
@@ -40,6 +41,8 @@ pub struct ViewContext<'a> {
     /// Both views' world-to-clip matrices and eyes (cross-view reuse projects into the other).
     pub view_projections: [Mat4; 2],
     pub eyes: [Vec3; 2],
+    /// Near and far plane distances (NDC depth 0 and 1).
+    pub depth_range: (f32, f32),
     pub width: u32,
     pub height: u32,
     pub geometry: &'a FrameGeometry,
@@ -107,6 +110,8 @@ pub struct Accounting<'a> {
     pub refinement: &'a mut dyn FnMut(u32, u8),
     /// Shading-cache activity of the unit's view.
     pub cache: &'a mut ShadingCacheStats,
+    /// DRAM bytes moved past the caches: `(traffic class, bytes)` (light lists).
+    pub traffic: &'a mut dyn FnMut(&'static str, u64),
 }
 
 /// Refinement bits reported per pixel (heat maps of Fig. 5/13 of He et al.).

@@ -5,7 +5,7 @@
 use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{Deferred, PerPixel, ShadingScheme};
+use super::{Deferred, Lists, PerPixel, ShadingScheme};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 6] = [
+pub const SCHEMES: [SchemeEntry; 8] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -81,7 +81,29 @@ pub const SCHEMES: [SchemeEntry; 6] = [
         reports_refinement: false,
         reports_cache: false,
         has_thresholds: false,
-        build: |_, _| Box::new(Deferred),
+        build: |_, _| Box::new(Deferred { lists: Lists::None }),
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "tiled",
+        models: "tiled deferred shading (RTR4 20.3): light lists per 16x16 tile from its depth bounds",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| Box::new(Deferred { lists: Lists::Tiled }),
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "clustered",
+        models: "clustered deferred shading (RTR4 20.4): light lists per 64x64 px x 16 exponential depth slices",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| {
+            Box::new(Deferred {
+                lists: Lists::Clustered,
+            })
+        },
         supports: opaque_only,
     },
 ];
