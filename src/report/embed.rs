@@ -3,9 +3,17 @@
 
 use shadetrace_replay::images::Rgba8Image;
 
-/// A PNG as a `data:` URI for an `<img src>`.
-pub fn png_data_uri(png: &[u8]) -> String {
-    data_uri("image/png", png)
+/// A heat map thumbnail as a PNG `data:` URI: RGB (the maps are opaque) at the best
+/// compression, which keeps the page about a sixth smaller than default RGBA PNGs.
+pub fn png_data_uri(image: &Rgba8Image) -> Result<String, String> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use image::{ExtendedColorType, ImageEncoder};
+    let rgb: Vec<u8> = image.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+    let mut png = Vec::new();
+    PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
+        .write_image(&rgb, image.width, image.height, ExtendedColorType::Rgb8)
+        .map_err(|e| format!("encoding a thumbnail: {e}"))?;
+    Ok(data_uri("image/png", &png))
 }
 
 /// JPEG quality of the rendered views' thumbnails: a fifth of their PNG size, which keeps a

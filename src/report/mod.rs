@@ -20,7 +20,7 @@ use shadetrace_formats::atomic_file::write_bytes_atomically;
 /// Width, in pixels, of each view in the report's thumbnails (nearest neighbour), so that the
 /// page stays small however many presets and scenes it shows; the full-size pictures are
 /// files beside it.
-const THUMBNAIL_VIEW_WIDTH: u32 = 160;
+const THUMBNAIL_VIEW_WIDTH: u32 = 120;
 const HEAT_LABEL: &str = "issued instructions per pixel";
 
 /// What the report says about a trace, taken from its header.
@@ -340,7 +340,8 @@ fn file_href(dir: &str, file: &str) -> String {
 fn render_table(h: &mut String, section: &ReportSection) {
     let stages = stage_names(section.runs.iter().map(|run| &run.result.total.cost));
     let classes = traffic_names(section.runs.iter().map(|run| &run.result.total.traffic));
-    h.push_str("<table>\n<thead><tr><th>preset</th><th>scheduler</th><th>scheme</th><th>relative cost</th>");
+    // Wide tables scroll inside their box rather than widening the page.
+    h.push_str("<div class=\"wide\"><table>\n<thead><tr><th>preset</th><th>scheduler</th><th>scheme</th><th>relative cost</th>");
     for stage in &stages {
         let _ = write!(h, "<th>{} instr.</th>", escape(stage));
     }
@@ -383,7 +384,7 @@ fn render_table(h: &mut String, section: &ReportSection) {
         }
         h.push_str("</tr>\n");
     }
-    h.push_str("</tbody>\n</table>\n");
+    h.push_str("</tbody>\n</table></div>\n");
 }
 
 /// One thumbnail per run of a picture made against the reference (`uris`, None for a run
@@ -468,7 +469,7 @@ impl SectionImages {
             let map = |values: Option<(Vec<f32>, u32, u32)>, scale: f32, label: &str| match values {
                 Some((values, width, height)) => {
                     let map = heat_map(&values, width, height, Some(scale), label);
-                    map.to_png_bytes().map(|png| Some(embed::png_data_uri(&png)))
+                    embed::png_data_uri(&map).map(Some)
                 }
                 None => Ok(None),
             };
@@ -558,7 +559,7 @@ body{font-family:sans-serif;margin:1.5em;color:#222;max-width:1400px}\
 h2{border-bottom:2px solid #888;margin-top:2em}\
 .note{background:#fff6d5;border-left:4px solid #e6b800;padding:.4em .8em}\
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em}dt{font-weight:bold}dd{margin:0}\
-table{border-collapse:collapse;font-size:.9em}th,td{border:1px solid #bbb;padding:.25em .5em}\
+.wide{overflow-x:auto;max-width:100%}table{border-collapse:collapse;font-size:.9em}th,td{border:1px solid #bbb;padding:.25em .5em}\
 td{text-align:right;font-variant-numeric:tabular-nums}td:nth-child(-n+3){text-align:left}th{background:#eee}\
 .swatch{display:inline-block;width:.8em;height:.8em;margin-right:.3em;vertical-align:middle}\
 .grid{display:flex;flex-wrap:wrap;gap:1em}\
