@@ -86,7 +86,21 @@ mod tests {
 
     #[test]
     fn data_uris_carry_standard_base64() {
-        assert_eq!(png_data_uri(b"foob"), "data:image/png;base64,Zm9vYg==");
+        assert_eq!(data_uri("image/png", b"foob"), "data:image/png;base64,Zm9vYg==");
+    }
+
+    #[test]
+    fn heat_map_thumbnails_are_rgb_pngs_of_the_same_pixels() {
+        use base64::Engine;
+        let mut image = Rgba8Image::new(3, 2);
+        image.pixels[4] = [10, 200, 30, 255];
+        let uri = png_data_uri(&image).unwrap();
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(uri.strip_prefix("data:image/png;base64,").unwrap())
+            .unwrap();
+        let decoded = image::load_from_memory(&png).unwrap();
+        assert_eq!(decoded.color(), image::ColorType::Rgb8);
+        assert_eq!(decoded.to_rgb8().get_pixel(1, 1).0, [10, 200, 30]);
     }
 
     #[test]
