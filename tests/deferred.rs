@@ -109,3 +109,35 @@ fn light_lists_keep_the_pixels_and_cut_the_lighting() {
     }
     assert!(deferred["frames"][0]["traffic"].get("light_lists").is_none());
 }
+
+/// The visibility buffer stores ids only and re-interpolates exactly what forward
+/// interpolates, so its pixels are forward's bit for bit at any MSAA; it reports the buffer
+/// and its traffic, and fetches triangles again when shading.
+#[test]
+fn the_visibility_buffer_gives_forwards_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    for msaa in ["1", "4"] {
+        let run = |preset: &str| {
+            let out = dir.path().join(format!("{preset}-{msaa}"));
+            let r = replay_into(
+                &trace("spheres"),
+                preset,
+                &["--res", "96x108", "--frames", "0", "--msaa", msaa],
+                None,
+                &out,
+            );
+            (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+        };
+        let ((vis, vis_pixels), (_, forward_pixels)) = (run("visbuffer"), run("forward"));
+        assert!(
+            vis_pixels == forward_pixels,
+            "MSAA {msaa}: visbuffer's pixels differ from forward's"
+        );
+        let frame = &vis["frames"][0];
+        let samples: u64 = msaa.parse().unwrap();
+        assert_eq!(frame["visibility_bytes"], 2 * 96 * 108 * samples * 8);
+        assert!(frame["traffic"]["visibility"].as_u64().unwrap() > 0);
+        assert!(frame.get("gbuffer_bytes").is_none() && frame["traffic"].get("gbuffer").is_none());
+        assert_eq!(frame["views"][0]["quality"]["ssim"], 1.0);
+    }
+}

@@ -79,6 +79,9 @@ pub struct FrameResult {
     /// Bytes of the G-buffer of both views (deferred schemes only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gbuffer_bytes: Option<u64>,
+    /// Bytes of the visibility buffer of both views (`visbuffer` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility_bytes: Option<u64>,
 }
 
 /// Per-view counters.
@@ -392,6 +395,9 @@ pub struct CacheReport {
     /// Only deferred schemes have a G-buffer.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gbuffer: Option<CacheStats>,
+    /// Only the visibility buffer scheme has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility: Option<CacheStats>,
 }
 
 /// Binning lists (the tile-pair paper's Table 1 columns), both views together.

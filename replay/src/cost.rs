@@ -87,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 22] = [
+const FIXED_BLOCKS: [Block; 24] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -110,6 +110,8 @@ const FIXED_BLOCKS: [Block; 22] = [
     Block::LightCull,
     Block::DepthBounds,
     Block::ClusterLookup,
+    Block::VisibilityWrite,
+    Block::VisibilityInterpolate,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

@@ -72,6 +72,12 @@ pub enum Block {
     /// Clustered shading: a pixel's cluster from its depth (view distance, log, slice) and
     /// the fetch of the cluster's list header.
     ClusterLookup,
+    /// Visibility buffer, geometry pass: write the triangle and instance ids.
+    VisibilityWrite,
+    /// Visibility buffer, shading pass: read the ids, fetch the triangle's three vertices,
+    /// barycentrics from its plane equations, interpolate position, normal and uv and their
+    /// screen-space derivatives (deferred texturing, RTR4 §20.5).
+    VisibilityInterpolate,
 }
 
 impl Block {
@@ -90,6 +96,8 @@ impl Block {
             Block::LightCull => (26, 0),
             Block::DepthBounds => (4, 0),
             Block::ClusterLookup => (8, 0),
+            Block::VisibilityWrite => (2, 0),
+            Block::VisibilityInterpolate => (36, 0),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

@@ -329,6 +329,7 @@ impl Replay {
             lists: out.lists,
             shadow_pass: out.shadow_pass,
             gbuffer_bytes: out.gbuffer_bytes,
+            visibility_bytes: out.visibility_bytes,
         });
         *self.stages.entry("quality").or_default() += quality_started.elapsed();
         self.busy += started.elapsed();

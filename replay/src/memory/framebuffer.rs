@@ -4,6 +4,10 @@
 
 use super::LINE_BYTES;
 
+/// Bytes per visibility-buffer sample: triangle id and instance id (depth is the depth
+/// buffer's).
+pub const VISIBILITY_SAMPLE_BYTES: u32 = 8;
+
 /// Bytes per G-buffer sample, depth included, as in Schied and Dachsbacher's comparison:
 /// albedo RGBA8 (4), triangle id (4), linear depth f32 (4), octahedral normal 2x16 bits (4),
 /// material id (4).
@@ -57,6 +61,21 @@ impl FramebufferLayout {
     /// Bytes of a G-buffer cache holding `tiles` tiles of `tile`² pixels.
     pub fn gbuffer_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
         (tile * tile * GBUFFER_SAMPLE_BYTES * self.samples * tiles) as u64
+    }
+
+    /// A visibility-buffer sample ([`VISIBILITY_SAMPLE_BYTES`]), in its own address range.
+    pub fn visibility_line(&self, view: u8, x: u32, y: u32) -> u64 {
+        self.line(view, x, y, VISIBILITY_SAMPLE_BYTES)
+    }
+
+    /// Bytes of the visibility buffer of one view.
+    pub fn visibility_bytes(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height) * u64::from(self.samples) * u64::from(VISIBILITY_SAMPLE_BYTES)
+    }
+
+    /// Bytes of a visibility-buffer cache holding `tiles` tiles of `tile`² pixels.
+    pub fn visibility_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
+        (tile * tile * VISIBILITY_SAMPLE_BYTES * self.samples * tiles) as u64
     }
 
     /// Bytes of a depth cache holding `tiles` tiles of `tile`² pixels.

@@ -7,7 +7,7 @@
 
 mod framebuffer;
 
-pub use framebuffer::{FramebufferLayout, GBUFFER_SAMPLE_BYTES};
+pub use framebuffer::{FramebufferLayout, GBUFFER_SAMPLE_BYTES, VISIBILITY_SAMPLE_BYTES};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};
@@ -20,6 +20,8 @@ pub const TRIANGLE_DATA: &str = "triangle_data";
 pub const TEXTURE: &str = "texture";
 /// Written and read only by deferred schemes' G-buffers (reported only where used).
 pub const GBUFFER: &str = "gbuffer";
+/// Written and read only by the visibility buffer (reported only where used).
+pub const VISIBILITY: &str = "visibility";
 /// Associativity of every cache (fewer ways when a cache has fewer lines).
 const WAYS: usize = 4;
 /// Depth is compressed 4x and colour 2x on their way to DRAM (Seiler et al., as in the
@@ -37,6 +39,8 @@ pub enum Stream {
     Texture = 3,
     /// A deferred scheme's G-buffer: a render target like colour, uncompressed.
     GBuffer = 4,
+    /// The visibility buffer's triangle and instance ids per sample.
+    Visibility = 5,
 }
 
 /// Log entries are 32-bit: a line number below 2^31 and a write bit. Every stream's address
@@ -44,7 +48,7 @@ pub enum Stream {
 /// mips and the shadow map, about 2^25 lines.
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
-const STREAMS: usize = 5;
+const STREAMS: usize = 6;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
 /// replays only its own accesses), cut into segments, one per command that made accesses.
@@ -151,6 +155,7 @@ pub struct CacheSizes {
     pub triangle_data: u64,
     pub texture: u64,
     pub gbuffer: u64,
+    pub visibility: u64,
 }
 
 /// One set-associative LRU cache, or the part of one that holds the sets `part` of
@@ -280,7 +285,10 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
         let mut written = LineSet::default();
         let mut dram_lines = 0u64;
         let mut writebacks = 0u64;
-        let framebuffer = matches!(stream, Stream::Depth | Stream::Color | Stream::GBuffer);
+        let framebuffer = matches!(
+            stream,
+            Stream::Depth | Stream::Color | Stream::GBuffer | Stream::Visibility
+        );
         for &(log, i) in segments {
             for &entry in log.stream(i, stream as usize) {
                 let line = u64::from(entry & LINE_MASK);
@@ -318,19 +326,24 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
                 (d + pd, w + pw, stats)
             })
     };
-    let (((depth, color), (tri, tex)), gbuffer) = rayon::join(
+    let ((((depth, color), (tri, tex)), gbuffer), visibility) = rayon::join(
         || {
             rayon::join(
-                || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
                 || {
                     rayon::join(
-                        || run(Stream::TriangleData, sizes.triangle_data),
-                        || run(Stream::Texture, sizes.texture),
+                        || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
+                        || {
+                            rayon::join(
+                                || run(Stream::TriangleData, sizes.triangle_data),
+                                || run(Stream::Texture, sizes.texture),
+                            )
+                        },
                     )
                 },
+                || run(Stream::GBuffer, sizes.gbuffer),
             )
         },
-        || run(Stream::GBuffer, sizes.gbuffer),
+        || run(Stream::Visibility, sizes.visibility),
     );
     let mut traffic = Traffic::default();
     traffic.add_bytes(
@@ -343,12 +356,17 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
     if used_gbuffer {
         traffic.add_bytes(GBUFFER, (gbuffer.0 + gbuffer.1) * LINE_BYTES);
     }
+    let used_visibility = visibility.2.accesses > 0;
+    if used_visibility {
+        traffic.add_bytes(VISIBILITY, (visibility.0 + visibility.1) * LINE_BYTES);
+    }
     let report = CacheReport {
         depth: depth.2,
         color: color.2,
         triangle_data: tri.2,
         texture: tex.2,
         gbuffer: used_gbuffer.then_some(gbuffer.2),
+        visibility: used_visibility.then_some(visibility.2),
     };
     (traffic, report)
 }
@@ -384,6 +402,7 @@ mod tests {
             triangle_data: LINE_BYTES,
             texture: LINE_BYTES,
             gbuffer: 4096,
+            visibility: 4096,
         };
         // Depth line 7 written, evicted by 8, read again: one writeback, one real fill.
         let l = log(&[
@@ -430,6 +449,7 @@ mod tests {
             triangle_data: LINE_BYTES,
             texture: 64 * LINE_BYTES,
             gbuffer: 4096,
+            visibility: 4096,
         };
         let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();
         let with = |threads| {

@@ -34,7 +34,8 @@ use crate::shader::{ShaderEnv, ShadingLight};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
-use job::{run_job, JobContext, JobOutput, VERTEX_BYTES};
+pub use job::VERTEX_BYTES;
+use job::{run_job, JobContext, JobOutput};
 pub use resolve::clear_pixel;
 pub use sample_buffer::{depth_passes, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
 use stage_clock::StageClock;
@@ -105,6 +106,8 @@ pub struct FrameOutput {
     pub shadow_pass: Option<ShadowPassStats>,
     /// Bytes of the G-buffer of both views, when the scheme wrote one.
     pub gbuffer_bytes: Option<u64>,
+    /// Bytes of the visibility buffer of both views, when the scheme wrote one.
+    pub visibility_bytes: Option<u64>,
     /// Wall time of each stage of this frame.
     pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
@@ -221,6 +224,7 @@ pub fn run_frame(
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
         gbuffer: layout.gbuffer_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
+        visibility: layout.visibility_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
@@ -257,6 +261,7 @@ pub fn run_frame(
         views,
         traffic,
         gbuffer_bytes: caches.gbuffer.map(|_| 2 * layout.gbuffer_bytes()),
+        visibility_bytes: caches.visibility.map(|_| 2 * layout.visibility_bytes()),
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),

@@ -34,7 +34,8 @@ use super::light_lists::{
 use super::{Accounting, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads};
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
-use crate::memory::Stream;
+use crate::memory::{Stream, LINE_BYTES};
+use crate::pipeline::VERTEX_BYTES;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
 use crate::shader::{compose, LightingInputs};
@@ -43,6 +44,8 @@ use crate::texture::srgb_to_linear;
 
 /// Cost stage of the G-buffer pass (the lighting pass is [`FINE`]).
 pub const GBUFFER: &str = "gbuffer";
+/// Cost stage of the visibility buffer's geometry pass.
+pub const VISIBILITY: &str = "visibility";
 /// Cost stage and traffic class of light-list building and storage.
 pub const LIGHT_LISTS: &str = "light_lists";
 
@@ -57,16 +60,29 @@ pub enum Lists {
     Clustered,
 }
 
+/// What the geometry pass stores per sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// The 20-byte G-buffer: the shading inputs, quantized.
+    GBuffer,
+    /// The visibility buffer (RTR4 §20.5, deferred texturing): triangle and instance ids
+    /// only; the shading pass fetches the triangle, interpolates its attributes and samples
+    /// the textures itself, so the pixels are `forward`'s.
+    Visibility,
+}
+
 pub struct Deferred {
+    pub target: Target,
     pub lists: Lists,
 }
 
 impl ShadingScheme for Deferred {
     fn name(&self) -> &'static str {
-        match self.lists {
-            Lists::None => "deferred",
-            Lists::Tiled => "tiled",
-            Lists::Clustered => "clustered",
+        match (self.target, self.lists) {
+            (Target::Visibility, _) => "visbuffer",
+            (Target::GBuffer, Lists::None) => "deferred",
+            (Target::GBuffer, Lists::Tiled) => "tiled",
+            (Target::GBuffer, Lists::Clustered) => "clustered",
         }
     }
 
@@ -76,6 +92,7 @@ impl ShadingScheme for Deferred {
 
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob> {
         Box::new(DeferredJob {
+            target: self.target,
             lists: self.lists,
             packer: SimdPacker::new(simd_width, lights),
             blocks: BlockSet::new(lights),
@@ -96,6 +113,7 @@ struct GSample {
 }
 
 struct DeferredJob {
+    target: Target,
     lists: Lists,
     packer: SimdPacker,
     blocks: BlockSet,
@@ -116,6 +134,25 @@ impl SchemeJob for DeferredJob {
     fn shade_unit(&mut self, _: &UnitContext, _: &[ShadeQuad], _: &mut Vec<[Vec4; 4]>, _: &mut Accounting) {}
 
     fn visible_quads(&mut self, ctx: &UnitContext, visible: &VisibleQuads, acc: &mut Accounting) {
+        if self.target == Target::Visibility {
+            let stage = acc.cost.stage_mut(VISIBILITY);
+            self.blocks.clear();
+            self.blocks.take(Block::VisibilityWrite);
+            for &(quad, passed) in visible.quads {
+                for l in 0..4u32 {
+                    let (x, y) = (quad.x + (l & 1), quad.y + (l >> 1));
+                    let useful = passed >> (l as usize * visible.samples) & ((1 << visible.samples) - 1) != 0;
+                    if useful {
+                        acc.log
+                            .touch(Stream::Visibility, visible.layout.visibility_line(ctx.view, x, y), true);
+                    }
+                    self.packer
+                        .lane(&self.blocks, useful, ctx.pixel_id(x, y), stage, acc.heat);
+                }
+            }
+            self.packer.flush(stage, acc.heat);
+            return;
+        }
         let samples = visible.samples;
         let rect = visible.rect;
         let tile = self.tiles.entry((ctx.view, visible.tile)).or_insert_with(|| {
@@ -155,8 +192,11 @@ impl SchemeJob for DeferredJob {
     }
 
     fn shade_tile(&mut self, ctx: &TileContext, buffer: &mut SampleBuffer, acc: &mut Accounting) {
-        let Some(gbuffer) = self.tiles.remove(&(buffer.view, ctx.tile)) else {
-            return;
+        // The G-buffer targets have a tile wherever something is visible; the visibility
+        // buffer has none (its ids are the tile's own).
+        let gbuffer = match (self.target, self.tiles.remove(&(buffer.view, ctx.tile))) {
+            (Target::GBuffer, None) => return,
+            (_, tile) => tile.unwrap_or_default(),
         };
         let culler = self.culler.get_or_insert_with(|| LightCuller::new(ctx.env.lights));
         let rect = buffer.rect;
@@ -229,8 +269,11 @@ impl DeferredJob {
                 if buffer.tri[first..first + samples].iter().all(|&t| t == NO_PRIMITIVE) {
                     continue;
                 }
-                acc.log
-                    .touch(Stream::GBuffer, ctx.layout.gbuffer_line(buffer.view, x, y), false);
+                let (stream, line) = match self.target {
+                    Target::GBuffer => (Stream::GBuffer, ctx.layout.gbuffer_line(buffer.view, x, y)),
+                    Target::Visibility => (Stream::Visibility, ctx.layout.visibility_line(buffer.view, x, y)),
+                };
+                acc.log.touch(stream, line, false);
                 acc.log
                     .touch(Stream::Color, ctx.layout.color_line(buffer.view, x, y), true);
                 self.shaded.clear();
@@ -245,14 +288,37 @@ impl DeferredJob {
                         continue;
                     }
                     let unit = ctx.unit(tri);
-                    let g = gbuffer[i];
+                    let material = unit.triangle.material;
+                    let own = unit.attributes(x, y);
                     self.blocks.clear();
-                    self.blocks.take(Block::GBufferRead);
+                    let (normal, albedo) = match self.target {
+                        Target::GBuffer => {
+                            self.blocks.take(Block::GBufferRead);
+                            let g = gbuffer[i];
+                            (octahedral_decode(g.normal), decode_albedo(g.albedo))
+                        }
+                        Target::Visibility => {
+                            // The triangle's vertices, its attributes at the pixel's quad (for
+                            // the texture's derivatives, as forward's quads give them).
+                            self.blocks.take(Block::VisibilityInterpolate);
+                            for v in unit.triangle.vertices {
+                                acc.log
+                                    .touch(Stream::TriangleData, u64::from(v) * VERTEX_BYTES / LINE_BYTES, false);
+                            }
+                            let (qx, qy) = (x & !1, y & !1);
+                            let [a, b, c] =
+                                [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
+                            let albedo = ctx
+                                .env
+                                .albedo(material, own.uv, b - a, c - a, &mut self.blocks, acc.log);
+                            (own.normal, albedo)
+                        }
+                    };
                     let inputs = LightingInputs {
-                        position: unit.attributes(x, y).position,
-                        normal: octahedral_decode(g.normal),
+                        position: own.position,
+                        normal,
                         eye: ctx.eye,
-                        material: unit.triangle.material,
+                        material,
                     };
                     let lighting = match self.lists {
                         Lists::None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
@@ -272,7 +338,7 @@ impl DeferredJob {
                             ctx.env.lighting_listed(&inputs, &list, &mut self.blocks, acc.log)
                         }
                     };
-                    let colour = compose(decode_albedo(g.albedo), lighting, &mut self.blocks);
+                    let colour = compose(albedo, lighting, &mut self.blocks);
                     let stage = acc.cost.stage_mut(FINE);
                     self.packer
                         .lane(&self.blocks, true, unit.pixel_id(x, y), stage, acc.heat);

@@ -10,7 +10,7 @@ mod per_pixel;
 pub mod registry;
 pub mod shading_cache;
 
-pub use deferred::{Deferred, Lists};
+pub use deferred::{Deferred, Lists, Target};
 pub use multirate::{Multirate, MultirateConfig};
 pub use per_pixel::PerPixel;
 

@@ -5,7 +5,7 @@
 use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{Deferred, Lists, PerPixel, ShadingScheme};
+use super::{Deferred, Lists, PerPixel, ShadingScheme, Target};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 8] = [
+pub const SCHEMES: [SchemeEntry; 9] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -81,7 +81,12 @@ pub const SCHEMES: [SchemeEntry; 8] = [
         reports_refinement: false,
         reports_cache: false,
         has_thresholds: false,
-        build: |_, _| Box::new(Deferred { lists: Lists::None }),
+        build: |_, _| {
+            Box::new(Deferred {
+                target: Target::GBuffer,
+                lists: Lists::None,
+            })
+        },
         supports: opaque_only,
     },
     SchemeEntry {
@@ -90,7 +95,12 @@ pub const SCHEMES: [SchemeEntry; 8] = [
         reports_refinement: false,
         reports_cache: false,
         has_thresholds: false,
-        build: |_, _| Box::new(Deferred { lists: Lists::Tiled }),
+        build: |_, _| {
+            Box::new(Deferred {
+                target: Target::GBuffer,
+                lists: Lists::Tiled,
+            })
+        },
         supports: opaque_only,
     },
     SchemeEntry {
@@ -101,7 +111,22 @@ pub const SCHEMES: [SchemeEntry; 8] = [
         has_thresholds: false,
         build: |_, _| {
             Box::new(Deferred {
+                target: Target::GBuffer,
                 lists: Lists::Clustered,
+            })
+        },
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "visbuffer",
+        models: "visibility buffer (RTR4 20.5): triangle ids per sample, attributes and textures fetched when shading",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| {
+            Box::new(Deferred {
+                target: Target::Visibility,
+                lists: Lists::None,
             })
         },
         supports: opaque_only,
