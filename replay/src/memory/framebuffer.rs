@@ -1,17 +1,33 @@
-//! Where the framebuffer lives in the memory model's address space: depth (4 bytes per
-//! sample) and colour (RGBA32F, 16 bytes per sample) in block-linear lines of
-//! [`LINE_BYTES`], one address range per view; the depth and colour caches hold whole tiles.
+//! Where the render targets live in the memory model's address space: each in block-linear
+//! lines of [`LINE_BYTES`], one address range per view; their caches hold whole tiles.
 
 use super::LINE_BYTES;
 
-/// Bytes per visibility-buffer sample: triangle id and instance id (depth is the depth
-/// buffer's).
-pub const VISIBILITY_SAMPLE_BYTES: u32 = 8;
+/// A per-sample render target and its bytes per sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderTarget {
+    /// f32 depth.
+    Depth,
+    /// RGBA32F colour.
+    Color,
+    /// A deferred scheme's G-buffer, depth included, as in Schied and Dachsbacher's
+    /// comparison: albedo RGBA8 (4), triangle id (4), linear depth f32 (4), octahedral
+    /// normal 2x16 bits (4), material id (4).
+    GBuffer,
+    /// The visibility buffer: triangle id and instance id (depth is the depth buffer's).
+    Visibility,
+}
 
-/// Bytes per G-buffer sample, depth included, as in Schied and Dachsbacher's comparison:
-/// albedo RGBA8 (4), triangle id (4), linear depth f32 (4), octahedral normal 2x16 bits (4),
-/// material id (4).
-pub const GBUFFER_SAMPLE_BYTES: u32 = 20;
+impl RenderTarget {
+    pub const fn bytes_per_sample(self) -> u32 {
+        match self {
+            RenderTarget::Depth => 4,
+            RenderTarget::Color => 16,
+            RenderTarget::GBuffer => 20,
+            RenderTarget::Visibility => 8,
+        }
+    }
+}
 
 #[derive(Clone, Copy, Debug)]
 pub struct FramebufferLayout {
@@ -32,59 +48,29 @@ impl FramebufferLayout {
         (pixels / bh, bh)
     }
 
-    fn line(&self, view: u8, x: u32, y: u32, bytes_per_sample: u32) -> u64 {
-        let (bw, bh) = self.block(bytes_per_sample);
+    /// The line of `target` holding pixel (x, y) of `view`.
+    pub fn line(&self, target: RenderTarget, view: u8, x: u32, y: u32) -> u64 {
+        let (bw, bh) = self.block(target.bytes_per_sample());
         let per_row = self.width.div_ceil(bw) as u64;
         let per_view = per_row * self.height.div_ceil(bh) as u64;
         view as u64 * per_view + (y / bh) as u64 * per_row + (x / bw) as u64
     }
 
     pub fn depth_line(&self, view: u8, x: u32, y: u32) -> u64 {
-        self.line(view, x, y, 4)
+        self.line(RenderTarget::Depth, view, x, y)
     }
 
     pub fn color_line(&self, view: u8, x: u32, y: u32) -> u64 {
-        self.line(view, x, y, 16)
+        self.line(RenderTarget::Color, view, x, y)
     }
 
-    /// A deferred scheme's G-buffer sample (albedo, triangle id, linear depth, normal,
-    /// material id: [`GBUFFER_SAMPLE_BYTES`]), in its own address range.
-    pub fn gbuffer_line(&self, view: u8, x: u32, y: u32) -> u64 {
-        self.line(view, x, y, GBUFFER_SAMPLE_BYTES)
+    /// Bytes of `target` for one view.
+    pub fn bytes(&self, target: RenderTarget) -> u64 {
+        u64::from(self.width) * u64::from(self.height) * u64::from(self.samples) * u64::from(target.bytes_per_sample())
     }
 
-    /// Bytes of the G-buffer of one view.
-    pub fn gbuffer_bytes(&self) -> u64 {
-        u64::from(self.width) * u64::from(self.height) * u64::from(self.samples) * u64::from(GBUFFER_SAMPLE_BYTES)
-    }
-
-    /// Bytes of a G-buffer cache holding `tiles` tiles of `tile`² pixels.
-    pub fn gbuffer_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
-        (tile * tile * GBUFFER_SAMPLE_BYTES * self.samples * tiles) as u64
-    }
-
-    /// A visibility-buffer sample ([`VISIBILITY_SAMPLE_BYTES`]), in its own address range.
-    pub fn visibility_line(&self, view: u8, x: u32, y: u32) -> u64 {
-        self.line(view, x, y, VISIBILITY_SAMPLE_BYTES)
-    }
-
-    /// Bytes of the visibility buffer of one view.
-    pub fn visibility_bytes(&self) -> u64 {
-        u64::from(self.width) * u64::from(self.height) * u64::from(self.samples) * u64::from(VISIBILITY_SAMPLE_BYTES)
-    }
-
-    /// Bytes of a visibility-buffer cache holding `tiles` tiles of `tile`² pixels.
-    pub fn visibility_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
-        (tile * tile * VISIBILITY_SAMPLE_BYTES * self.samples * tiles) as u64
-    }
-
-    /// Bytes of a depth cache holding `tiles` tiles of `tile`² pixels.
-    pub fn depth_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
-        (tile * tile * 4 * self.samples * tiles) as u64
-    }
-
-    /// Bytes of a colour cache holding `tiles` tiles of `tile`² pixels.
-    pub fn color_cache_bytes(&self, tile: u32, tiles: u32) -> u64 {
-        (tile * tile * 16 * self.samples * tiles) as u64
+    /// Bytes of a cache of `target` holding `tiles` tiles of `tile`² pixels.
+    pub fn cache_bytes(&self, target: RenderTarget, tile: u32, tiles: u32) -> u64 {
+        u64::from(tile * tile * target.bytes_per_sample() * self.samples * tiles)
     }
 }

@@ -7,7 +7,7 @@
 
 mod framebuffer;
 
-pub use framebuffer::{FramebufferLayout, GBUFFER_SAMPLE_BYTES, VISIBILITY_SAMPLE_BYTES};
+pub use framebuffer::{FramebufferLayout, RenderTarget};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 pub use shadetrace_formats::results::{CacheReport, CacheStats, Traffic};

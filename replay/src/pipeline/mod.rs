@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
 use crate::geometry::FrameGeometry;
-use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, TRIANGLE_DATA};
+use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, RenderTarget, TRIANGLE_DATA};
 use crate::options::ReplayOptions;
 use crate::raster::sample_offsets;
 use crate::schedule::{ScheduleInput, Scheduler, INDICES};
@@ -219,12 +219,12 @@ pub fn run_frame(
         clock.lap("view_pass");
     }
     let sizes = CacheSizes {
-        depth: layout.depth_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
-        color: layout.color_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
+        depth: layout.cache_bytes(RenderTarget::Depth, opts.tile, opts.framebuffer_cache_tiles),
+        color: layout.cache_bytes(RenderTarget::Color, opts.tile, opts.framebuffer_cache_tiles),
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
-        gbuffer: layout.gbuffer_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
-        visibility: layout.visibility_cache_bytes(opts.tile, opts.framebuffer_cache_tiles),
+        gbuffer: layout.cache_bytes(RenderTarget::GBuffer, opts.tile, opts.framebuffer_cache_tiles),
+        visibility: layout.cache_bytes(RenderTarget::Visibility, opts.tile, opts.framebuffer_cache_tiles),
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
     let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
@@ -260,8 +260,8 @@ pub fn run_frame(
     FrameOutput {
         views,
         traffic,
-        gbuffer_bytes: caches.gbuffer.map(|_| 2 * layout.gbuffer_bytes()),
-        visibility_bytes: caches.visibility.map(|_| 2 * layout.visibility_bytes()),
+        gbuffer_bytes: caches.gbuffer.map(|_| 2 * layout.bytes(RenderTarget::GBuffer)),
+        visibility_bytes: caches.visibility.map(|_| 2 * layout.bytes(RenderTarget::Visibility)),
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),

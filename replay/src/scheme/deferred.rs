@@ -1,6 +1,6 @@
 //! `deferred` (RTR4 §20.1): a geometry pass writes a G-buffer, then a screen pass lights
 //! each tile from it. The G-buffer is the layout of Schied and Dachsbacher's comparison, 20
-//! bytes per sample with depth ([`GBUFFER_SAMPLE_BYTES`]): albedo as sRGB RGBA8, triangle
+//! bytes per sample with depth ([`RenderTarget::GBuffer`]): albedo as sRGB RGBA8, triangle
 //! id, linear depth, the normal octahedrally encoded in 2x16 bits (Cigolle et al. 2014) and
 //! the material id. Both quantizations reach the image, so SSIM against `forward` measures
 //! them.
@@ -21,7 +21,7 @@
 //! build is the `light_lists` cost stage. Lists are conservative, so the pixels equal
 //! `deferred`'s.
 //!
-//! [`GBUFFER_SAMPLE_BYTES`]: crate::memory::GBUFFER_SAMPLE_BYTES
+//! [`RenderTarget::GBuffer`]: crate::memory::RenderTarget::GBuffer
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -34,7 +34,7 @@ use super::light_lists::{
 use super::{Accounting, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads};
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
-use crate::memory::{Stream, LINE_BYTES};
+use crate::memory::{RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::VERTEX_BYTES;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
@@ -143,8 +143,11 @@ impl SchemeJob for DeferredJob {
                     let (x, y) = (quad.x + (l & 1), quad.y + (l >> 1));
                     let useful = passed >> (l as usize * visible.samples) & ((1 << visible.samples) - 1) != 0;
                     if useful {
-                        acc.log
-                            .touch(Stream::Visibility, visible.layout.visibility_line(ctx.view, x, y), true);
+                        acc.log.touch(
+                            Stream::Visibility,
+                            visible.layout.line(RenderTarget::Visibility, ctx.view, x, y),
+                            true,
+                        );
                     }
                     self.packer
                         .lane(&self.blocks, useful, ctx.pixel_id(x, y), stage, acc.heat);
@@ -181,8 +184,11 @@ impl SchemeJob for DeferredJob {
                     for s in (0..samples).filter(|s| lane_samples & (1 << s) != 0) {
                         tile[first + s] = sample;
                     }
-                    acc.log
-                        .touch(Stream::GBuffer, visible.layout.gbuffer_line(ctx.view, x, y), true);
+                    acc.log.touch(
+                        Stream::GBuffer,
+                        visible.layout.line(RenderTarget::GBuffer, ctx.view, x, y),
+                        true,
+                    );
                 }
                 self.packer
                     .lane(&self.blocks, lane_samples != 0, ctx.pixel_id(x, y), stage, acc.heat);
@@ -270,8 +276,14 @@ impl DeferredJob {
                     continue;
                 }
                 let (stream, line) = match self.target {
-                    Target::GBuffer => (Stream::GBuffer, ctx.layout.gbuffer_line(buffer.view, x, y)),
-                    Target::Visibility => (Stream::Visibility, ctx.layout.visibility_line(buffer.view, x, y)),
+                    Target::GBuffer => (
+                        Stream::GBuffer,
+                        ctx.layout.line(RenderTarget::GBuffer, buffer.view, x, y),
+                    ),
+                    Target::Visibility => (
+                        Stream::Visibility,
+                        ctx.layout.line(RenderTarget::Visibility, buffer.view, x, y),
+                    ),
                 };
                 acc.log.touch(stream, line, false);
                 acc.log
