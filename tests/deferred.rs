@@ -141,3 +141,30 @@ fn the_visibility_buffer_gives_forwards_pixels() {
         assert_eq!(frame["views"][0]["quality"]["ssim"], 1.0);
     }
 }
+
+/// A binned GPU lights each tile right after drawing it, while its G-buffer is on chip; an
+/// immediate one lights after the whole frame, reading it back from DRAM.
+#[test]
+fn binned_schedulers_light_tiles_while_their_g_buffer_is_on_chip() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |preset: &str| {
+        let out = dir.path().join(preset.replace('+', "-"));
+        let r = replay_into(
+            &trace("depth-stack"),
+            preset,
+            &["--res", "160x180", "--frames", "0", "--no-reference"],
+            None,
+            &out,
+        );
+        (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+    };
+    let ((immediate, a), (binned, b)) = (run("deferred"), run("sort-middle+deferred"));
+    assert!(a == b, "the scheduler never changes pixels");
+    let gbuffer = |r: &Value| r["frames"][0]["traffic"]["gbuffer"].as_u64().unwrap();
+    assert!(
+        gbuffer(&binned) * 2 < gbuffer(&immediate),
+        "{} vs {}",
+        gbuffer(&binned),
+        gbuffer(&immediate)
+    );
+}

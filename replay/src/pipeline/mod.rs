@@ -335,8 +335,9 @@ pub fn commands_for(job: Job, z_prepass: bool, passes: Passes) -> Job {
 }
 
 /// Replays every command's accesses through the caches in the order the hardware would
-/// issue them: geometry commands by the scheduler's issue key, then screen passes by
-/// (view, tile), then a view pass and its work-list chunks in order.
+/// issue them: geometry commands by the scheduler's issue key, tile passes where the
+/// scheduler puts them (after all geometry, or after their tile's), then a view pass and its
+/// work-list chunks in order.
 fn memory_pass(
     sizes: CacheSizes,
     scheduler: &dyn Scheduler,
@@ -350,7 +351,7 @@ fn memory_pass(
             let key = match jobs[j].commands[index] {
                 Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, index)),
                 Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, index)),
-                Command::ShadeTile { view, tile } => (1, [view as u64, tile as u64, 0, 0]),
+                Command::ShadeTile { view, tile } => scheduler.tile_pass_key(view, tile, j, index),
                 Command::BeginSequence => continue,
             };
             order.push((key.0, key.1, j, segment));

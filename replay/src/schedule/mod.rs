@@ -50,6 +50,14 @@ pub trait Scheduler: Sync {
     /// `pass` is 0 for a depth pre-pass, 1 for the geometry pass; `job` and `index` (the
     /// command's position in its job) locate the unit.
     fn issue_key(&self, unit: &Unit, pass: u8, job: usize, index: usize) -> [u64; 4];
+    /// Sort key of the tile pass (`ShadeTile`, command `index` of `job`) of `view`'s `tile`,
+    /// with its group (0: among the geometry commands, 1: after all of them). By default
+    /// after every geometry command: an immediate GPU lights once the frame is drawn.
+    /// Binned schedulers that finish tiles in turn put it after the tile's own geometry, so
+    /// its G-buffer is still on chip.
+    fn tile_pass_key(&self, view: u8, tile: u32, _job: usize, _index: usize) -> (u8, [u64; 4]) {
+        (1, [view as u64, tile as u64, 0, 0])
+    }
     /// Binned architectures store the vertex stage's output in DRAM.
     fn stores_vertex_output(&self) -> bool;
 }

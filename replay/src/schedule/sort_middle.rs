@@ -28,6 +28,11 @@ impl Scheduler for SortMiddle {
         [unit.view as u64, unit.tile as u64, pass as u64, unit.tri as u64]
     }
 
+    /// After the tile's geometry ([`Self::issue_key`] orders by tile, then pass).
+    fn tile_pass_key(&self, view: u8, tile: u32, _job: usize, _index: usize) -> (u8, [u64; 4]) {
+        (0, [view as u64, tile as u64, 2, 0])
+    }
+
     fn stores_vertex_output(&self) -> bool {
         true
     }

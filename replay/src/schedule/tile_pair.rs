@@ -57,6 +57,11 @@ impl Scheduler for TilePair {
         [job as u64, pass as u64, index as u64, 0]
     }
 
+    /// After the row's geometry: a job's tile passes follow its geometry commands.
+    fn tile_pass_key(&self, _view: u8, _tile: u32, job: usize, index: usize) -> (u8, [u64; 4]) {
+        (0, [job as u64, 1, index as u64, 0])
+    }
+
     fn stores_vertex_output(&self) -> bool {
         true
     }
