@@ -111,9 +111,16 @@ impl ShaderEnv<'_> {
             self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
             self.combine(terms)
         } else {
-            let mut terms = vec![LightTerm::default(); self.lights.len()];
-            self.light_terms_of(inp, Effects::all(), list, &mut terms, blocks, log);
-            self.combine(&terms)
+            // Many lights: a per-thread buffer, cleared per call (no allocation per pixel).
+            thread_local! {
+                static TERMS: std::cell::RefCell<Vec<LightTerm>> = const { std::cell::RefCell::new(Vec::new()) };
+            }
+            TERMS.with_borrow_mut(|terms| {
+                terms.clear();
+                terms.resize(self.lights.len(), LightTerm::default());
+                self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
+                self.combine(terms)
+            })
         }
     }
 

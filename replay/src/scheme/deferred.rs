@@ -342,12 +342,13 @@ impl DeferredJob {
                                 y / CLUSTER_TILE,
                                 slice_of(buffer.depth[i], ctx.depth_range),
                             );
+                            let n = self.cluster(ctx, buffer.view, key.0, key.1, key.2).len();
                             if read.insert(key) {
-                                let n = self.cluster(ctx, buffer.view, key.0, key.1, key.2).len();
                                 (acc.traffic)(LIGHT_LISTS, list_bytes(n));
                             }
-                            let list = self.cluster(ctx, buffer.view, key.0, key.1, key.2).to_vec();
-                            ctx.env.lighting_listed(&inputs, &list, &mut self.blocks, acc.log)
+                            // Made just above; borrowed beside the block set, not copied.
+                            let list = &self.clusters[&(buffer.view, key.0, key.1, key.2)];
+                            ctx.env.lighting_listed(&inputs, list, &mut self.blocks, acc.log)
                         }
                     };
                     let colour = compose(albedo, lighting, &mut self.blocks);
