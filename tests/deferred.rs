@@ -168,3 +168,179 @@ fn binned_schedulers_light_tiles_while_their_g_buffer_is_on_chip() {
         gbuffer(&immediate)
     );
 }
+
+/// DAIS (Schied and Dachsbacher 2015) interpolates from the stored derivatives (Eq. 2):
+/// its pictures are forward's up to f32 rounding of the extrapolation from the screen
+/// centre and the analytic texture LOD; the list variant shades exactly the same; the
+/// buffers add up as Table 1 counts them.
+#[test]
+fn dais_keeps_forwards_pixels_and_counts_its_buffers() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |preset: &str, msaa: &str| {
+        let out = dir.path().join(format!("{preset}-{msaa}"));
+        let r = replay_into(
+            &trace("spheres"),
+            preset,
+            &["--res", "96x108", "--frames", "0", "--msaa", msaa],
+            None,
+            &out,
+        );
+        (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+    };
+    let (dais, _) = run("dais", "1");
+    for view in dais["frames"][0]["views"].as_array().unwrap() {
+        let q = &view["quality"];
+        assert!(q["ssim"].as_f64().unwrap() > 0.9999, "{q}");
+        assert!(q["max_abs_error"].as_u64().unwrap() <= 8, "{q}");
+    }
+    for msaa in [1u64, 4, 8] {
+        let (samples, (list, list_pixels)) = (run("dais", &msaa.to_string()), run("dais-list", &msaa.to_string()));
+        assert!(
+            samples.1 == list_pixels,
+            "MSAA {msaa}: the list shades what the samples do"
+        );
+        let pixels = 2 * 96 * 108;
+        for (r, visibility) in [(&samples.0, pixels * msaa * 4), (&list, pixels * 4)] {
+            let frame = &r["frames"][0];
+            let d = &frame["dais"];
+            assert_eq!(frame["visibility_bytes"], visibility);
+            assert_eq!(d["depth_bytes"], pixels * msaa * 4);
+            assert_eq!(d["memo_cache_bytes"], 81920, "2^13 entries and 2^12 locks");
+            let (lookups, hits, misses) = (
+                d["memo_lookups"].as_u64().unwrap(),
+                d["memo_hits"].as_u64().unwrap(),
+                d["memo_misses"].as_u64().unwrap(),
+            );
+            assert_eq!(hits + misses, lookups);
+            assert!(misses > 0 && misses <= lookups, "{d}");
+            assert_eq!(d["triangle_buffer_bytes"], misses * 80);
+            let nodes = d.get("list_nodes").map_or(0, |n| n.as_u64().unwrap());
+            assert_eq!(
+                d["total_bytes"].as_u64().unwrap(),
+                visibility + pixels * msaa * 4 + misses * 80 + nodes * 8
+            );
+            assert!(frame["traffic"]["triangle_buffer"].as_u64().unwrap() >= 3 * misses * 80);
+            for view in frame["views"].as_array().unwrap() {
+                assert!(view["cost"]["derivatives"]["useful_lanes"].as_u64().unwrap() > 0);
+            }
+        }
+        let nodes = list["frames"][0]["dais"]["list_nodes"].as_u64().unwrap();
+        if msaa == 1 {
+            assert_eq!(nodes, 0, "every fragment covers its pixel's one sample");
+        } else {
+            assert!(nodes > 0 && nodes < pixels, "nodes only at edges: {nodes}");
+        }
+    }
+}
+
+/// A memoization cache too small for the triangles in flight evicts them, and a triangle
+/// seen again is stored again: more stores, never other pixels.
+#[test]
+fn a_small_memoization_cache_stores_triangles_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |entries: &str| {
+        let out = dir.path().join(entries);
+        let r = replay_into(
+            &trace("depth-stack"),
+            "sort-middle+dais",
+            &["--res", "160x180", "--frames", "0", "--memo-entries", entries],
+            None,
+            &out,
+        );
+        (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+    };
+    let ((big, a), (small, b)) = (run("8192"), run("2"));
+    assert!(a == b);
+    let d = |r: &Value, k: &str| r["frames"][0]["dais"][k].as_u64().unwrap();
+    assert_eq!(d(&big, "redundant_stores"), 0);
+    assert!(d(&small, "redundant_stores") > 0 && d(&small, "memo_misses") > d(&big, "memo_misses"));
+    assert_eq!(d(&small, "memo_cache_bytes"), 2 * 8 + 4);
+}
+
+/// Multi-rate DAIS lights once per 2x2 shading quad its triangle covers whole: between a
+/// quarter of the shaded pixels and all of them, for a little quality.
+#[test]
+fn dais_multirate_lights_at_a_quarter_of_the_rate() {
+    let r = replay("dais-multirate", &[]);
+    let frame = &r["frames"][0];
+    let samples = frame["dais"]["shading_samples"].as_u64().unwrap();
+    let lit: u64 = frame["views"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["cost"]["fine"]["useful_lanes"].as_u64().unwrap())
+        .sum();
+    assert!(
+        samples * 4 >= lit && samples < lit / 2,
+        "{samples} samples, {lit} pixels"
+    );
+    assert!(frame["traffic"]["shading_samples"].as_u64().unwrap() == 2 * 12 * samples);
+    for view in frame["views"].as_array().unwrap() {
+        assert!(view["cost"]["coarse"]["useful_lanes"].as_u64().unwrap() > 0);
+        let ssim = view["quality"]["ssim"].as_f64().unwrap();
+        assert!(ssim > 0.99 && ssim < 1.0, "{ssim}");
+    }
+    assert!(
+        r["total"]["relative_cost"].as_f64().unwrap() < replay("dais", &[])["total"]["relative_cost"].as_f64().unwrap()
+    );
+}
+
+/// The deferred family at the extremes: 1x1 and 2x3 views at MSAA 8, and empty views.
+#[test]
+fn the_deferred_family_survives_tiny_and_empty_views() {
+    let dir = tempfile::tempdir().unwrap();
+    // A camera that looks away from everything.
+    let empty = dir.path().join("empty.strace").display().to_string();
+    let fly = dir.path().join("away.toml");
+    std::fs::write(
+        &fly,
+        "[[key]]\ntime = 0.0\nposition = [0.0, 50.0, 0.0]\nlook_at = [0.0, 100.0, 1.0]\n",
+    )
+    .unwrap();
+    let fly = fly.display().to_string();
+    let capture = [
+        "capture",
+        "builtin:light-room",
+        "-o",
+        &empty,
+        "--path",
+        &fly,
+        "--res",
+        "32x32",
+        "--frames",
+        "1",
+    ];
+    common::shadetrace_ok(&capture, None);
+    for preset in [
+        "deferred",
+        "tiled",
+        "clustered",
+        "visbuffer",
+        "dais",
+        "dais-list",
+        "dais-multirate",
+    ] {
+        for (scene, res) in [
+            (trace("light-room"), "1x1"),
+            (trace("light-room"), "2x3"),
+            (empty.clone(), "32x32"),
+        ] {
+            let out = dir.path().join(format!("{preset}-{res}"));
+            let r = replay_into(
+                &scene,
+                preset,
+                &["--res", res, "--frames", "0", "--msaa", "8"],
+                None,
+                &out,
+            );
+            common::assert_sane(&r, &format!("{preset} {res}"));
+            if res == "32x32" {
+                assert_eq!(
+                    r["total"]["cost"]["fine"]["groups"].as_u64(),
+                    Some(0),
+                    "{preset}: nothing to shade"
+                );
+            }
+        }
+    }
+}

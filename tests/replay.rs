@@ -33,6 +33,7 @@ fn identical_results_and_images_at_any_thread_count() {
         ("hairball", "forward"),
         ("depth-stack", "he-dynamic"),
         ("light-room", "deferred"),
+        ("spheres", "dais-multirate"),
     ] {
         let res = ["--res", "160x180"];
         let (one, dir1) = replay(name, preset, &res, Some("1"), dir.path());

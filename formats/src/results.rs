@@ -79,9 +79,41 @@ pub struct FrameResult {
     /// Bytes of the G-buffer of both views (deferred schemes only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gbuffer_bytes: Option<u64>,
-    /// Bytes of the visibility buffer of both views (`visbuffer` only).
+    /// Bytes of the visibility buffer of both views (`visbuffer` and `dais` schemes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility_bytes: Option<u64>,
+    /// The triangle buffer, its memoization cache and the memory of the shading pass
+    /// (`dais` schemes only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dais: Option<DaisStats>,
+}
+
+/// Deferred attribute interpolation (Schied and Dachsbacher 2015), both views: the
+/// memoization cache that stores each visible triangle once, and the buffers of Table 1.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DaisStats {
+    /// Fragment invocations of the fill pass, each looking its triangle up.
+    pub memo_lookups: u64,
+    pub memo_hits: u64,
+    /// Lookups that found no entry: each stores its triangle in the triangle buffer.
+    pub memo_misses: u64,
+    /// Misses on a triangle that was stored before and evicted since: stored twice.
+    pub redundant_stores: u64,
+    /// Bytes of the memoization cache (entries and per-bucket locks).
+    pub memo_cache_bytes: u64,
+    /// Triangles stored, 80 bytes each.
+    pub triangle_buffer_bytes: u64,
+    /// The multisampled depth buffer.
+    pub depth_bytes: u64,
+    /// Linked-list nodes (`dais-list`: one per triangle of a pixel not fully covered by one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub list_nodes: Option<u64>,
+    /// Shading samples at the reduced rate (`dais-multirate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shading_samples: Option<u64>,
+    /// Everything the shading pass reads, as Table 1's total: depth, visibility buffer (or
+    /// list heads and nodes), triangle buffer, shading-sample references and samples.
+    pub total_bytes: u64,
 }
 
 /// Per-view counters.
@@ -395,9 +427,12 @@ pub struct CacheReport {
     /// Only deferred schemes have a G-buffer.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gbuffer: Option<CacheStats>,
-    /// Only the visibility buffer scheme has one.
+    /// Only the visibility-buffer schemes have one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility: Option<CacheStats>,
+    /// Reads of the triangle buffer (`dais` schemes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub triangle_buffer: Option<CacheStats>,
 }
 
 /// Binning lists (the tile-pair paper's Table 1 columns), both views together.

@@ -27,7 +27,7 @@ bitflags::bitflags! {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BlockSet {
     /// One bit per light-independent [`Block`] (bit = `Block as u32`).
-    pub fixed: u32,
+    pub fixed: u64,
     /// Per light: its blocks.
     pub lights: Vec<LightBlocks>,
 }
@@ -47,7 +47,7 @@ impl BlockSet {
 
     #[inline]
     pub fn take(&mut self, block: Block) {
-        self.fixed |= 1 << block as u32;
+        self.fixed |= 1 << block as u64;
     }
 
     pub fn union_with(&mut self, other: &BlockSet) {
@@ -87,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 24] = [
+const FIXED_BLOCKS: [Block; 33] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -112,6 +112,15 @@ const FIXED_BLOCKS: [Block; 24] = [
     Block::ClusterLookup,
     Block::VisibilityWrite,
     Block::VisibilityInterpolate,
+    Block::MemoLookup,
+    Block::TriangleStore,
+    Block::TriangleDerivatives,
+    Block::DaisInterpolate,
+    Block::ListAppend,
+    Block::ListNode,
+    Block::ShadingSampleRef,
+    Block::ShadingSampleWrite,
+    Block::ShadingSampleRead,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

@@ -78,6 +78,34 @@ pub enum Block {
     /// barycentrics from its plane equations, interpolate position, normal and uv and their
     /// screen-space derivatives (deferred texturing, RTR4 §20.5).
     VisibilityInterpolate,
+    /// DAIS fill pass, per fragment: hash the triangle id, probe the bucket's two entries
+    /// (on a miss, the lock's atomic exchange and the slot allocation), write the visibility
+    /// sample's reference and coverage.
+    MemoLookup,
+    /// DAIS fill pass, the fragment that won the lock: write the triangle's three vertices
+    /// (1/w, normal, uv) into its slot; one divergent branch of its SIMD group.
+    TriangleStore,
+    /// DAIS derivative pass (Appendix A), per stored triangle: project the vertices, the
+    /// barycentrics' screen derivatives, then the value at the screen centre and the x and
+    /// y derivatives of 1/w and of normal and uv over w (18 dot products of three), and the
+    /// record's write.
+    TriangleDerivatives,
+    /// DAIS shading pass: read the visibility sample and the triangle's record, Eq. 2 for
+    /// 1/w, normal and uv at the pixel, uv's analytic derivatives for the texture LOD, the
+    /// position from depth.
+    DaisInterpolate,
+    /// DAIS linked list, fill pass: allocate a node (atomic counter), write count, triangle
+    /// and next pointer, swap the pixel's head.
+    ListAppend,
+    /// DAIS linked list, shading pass: read one node and follow its pointer.
+    ListNode,
+    /// DAIS multi-rate fill pass: agree within the 2x2 shading quad (one elected lane
+    /// creates the sample) and write the sample's reference.
+    ShadingSampleRef,
+    /// DAIS multi-rate shading-sample pass: LogLuv-encode the result and store it.
+    ShadingSampleWrite,
+    /// DAIS multi-rate resolve: read the reference and the sample, LogLuv-decode it.
+    ShadingSampleRead,
 }
 
 impl Block {
@@ -98,6 +126,15 @@ impl Block {
             Block::ClusterLookup => (8, 0),
             Block::VisibilityWrite => (2, 0),
             Block::VisibilityInterpolate => (36, 0),
+            Block::MemoLookup => (6, 0),
+            Block::TriangleStore => (12, 0),
+            Block::TriangleDerivatives => (96, 0),
+            Block::DaisInterpolate => (30, 0),
+            Block::ListAppend => (4, 0),
+            Block::ListNode => (3, 0),
+            Block::ShadingSampleRef => (4, 0),
+            Block::ShadingSampleWrite => (6, 0),
+            Block::ShadingSampleRead => (6, 0),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

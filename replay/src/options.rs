@@ -56,6 +56,11 @@ pub struct ReplayOptions {
     /// ablation).
     #[arg(long = "no-disparity-order", action = clap::ArgAction::SetFalse)]
     pub disparity_order: bool,
+    /// DAIS: entries of the memoization cache that stores each visible triangle once (a
+    /// power of two, two per bucket; the paper's 2^13 by default).
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.memo_entries)]
+    #[serde(skip_serializing_if = "default_memo_entries")]
+    pub memo_entries: u64,
     #[command(flatten)]
     pub multirate: MultirateOptions,
 }
@@ -73,6 +78,7 @@ pub const DEFAULT_OPTIONS: ReplayOptions = ReplayOptions {
     z_prepass: false,
     scheduler: None,
     disparity_order: true,
+    memo_entries: 1 << 13,
     multirate: crate::scheme::multirate::config::DEFAULT_MULTIRATE,
 };
 
@@ -98,6 +104,12 @@ impl ReplayOptions {
             return Err(format!(
                 "--shadow-map {} must be within 16..=16384",
                 self.shadow_map_size
+            ));
+        }
+        if !(2..=1 << 24).contains(&self.memo_entries) || !self.memo_entries.is_power_of_two() {
+            return Err(format!(
+                "--memo-entries {} must be a power of two within 2..=16777216",
+                self.memo_entries
             ));
         }
         if self.framebuffer_cache_tiles == 0 {
@@ -134,6 +146,11 @@ impl ReplayOptions {
         }
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
+}
+
+/// Added after goldens were first keyed: in the options map only when set.
+fn default_memo_entries(v: &u64) -> bool {
+    *v == DEFAULT_OPTIONS.memo_entries
 }
 
 /// Nested objects become dotted keys; values their text.

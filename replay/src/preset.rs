@@ -67,7 +67,7 @@ const fn without_small_triangle_path(preset: Preset) -> Preset {
 /// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
 /// shading of small blocks would bypass. He et al.'s own presets keep their paper's
 /// coverage-bbox samples, small-triangle path and immediate pipeline.
-pub const PRESETS: [Preset; 16] = [
+pub const PRESETS: [Preset; 19] = [
     preset(
         "forward",
         "immediate",
@@ -195,6 +195,24 @@ pub const PRESETS: [Preset; 16] = [
         "immediate",
         "visbuffer",
         "visibility buffer (RTR4 20.5): 8-byte triangle ids per sample, attributes re-fetched when shading",
+    ),
+    preset(
+        "dais",
+        "immediate",
+        "dais",
+        "deferred attribute interpolation (Schied and Dachsbacher 2015): z-prepass, 4-byte sample references into a memoized triangle buffer",
+    ),
+    preset(
+        "dais-list",
+        "immediate",
+        "dais-list",
+        "DAIS with per-pixel linked lists of visibility samples",
+    ),
+    preset(
+        "dais-multirate",
+        "immediate",
+        "dais-multirate",
+        "DAIS with lighting at shading rate 1/2 in 2x2 shading quads",
     ),
 ];
 

@@ -330,6 +330,7 @@ impl Replay {
             shadow_pass: out.shadow_pass,
             gbuffer_bytes: out.gbuffer_bytes,
             visibility_bytes: out.visibility_bytes,
+            dais: out.dais,
         });
         *self.stages.entry("quality").or_default() += quality_started.elapsed();
         self.busy += started.elapsed();

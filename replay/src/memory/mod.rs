@@ -4,6 +4,11 @@
 //! Work units record the cache lines they touch in an [`AccessLog`] while they run (in
 //! parallel); the caches then replay all logs sequentially in the order the scheduler
 //! issued the units, so traffic depends on the schedule and never on thread count.
+//!
+//! One structure in the log is not memory but a cache all the same: the memoization cache
+//! of deferred attribute interpolation ([`Stream::Memo`]), keyed by triangle, whose misses
+//! allocate the triangle buffer's slots. It replays first, in the same order, so that the
+//! triangle buffer's reads ([`Stream::TriangleBuffer`]) go to the slots the stores chose.
 
 mod framebuffer;
 
@@ -22,6 +27,17 @@ pub const TEXTURE: &str = "texture";
 pub const GBUFFER: &str = "gbuffer";
 /// Written and read only by the visibility buffer (reported only where used).
 pub const VISIBILITY: &str = "visibility";
+/// The triangle buffer of deferred attribute interpolation (reported only where used).
+pub const TRIANGLE_BUFFER: &str = "triangle_buffer";
+/// Bytes of one triangle in the triangle buffer (Schied and Dachsbacher §5): 1/w, normal
+/// and uv, each with its x and y derivatives (18 floats), the material id and padding.
+pub const TRIANGLE_RECORD_BYTES: u64 = 80;
+/// The memoization cache's buckets hold two entries each (§4.1).
+pub const MEMO_WAYS: u64 = 2;
+/// Bytes of a memoization-cache entry (triangle id, buffer offset) and of a bucket's lock:
+/// 2^13 entries take 80 KiB, the paper's figure.
+pub const MEMO_ENTRY_BYTES: u64 = 8;
+pub const MEMO_LOCK_BYTES: u64 = 4;
 /// Associativity of every cache (fewer ways when a cache has fewer lines).
 const WAYS: usize = 4;
 /// Depth is compressed 4x and colour 2x on their way to DRAM (Seiler et al., as in the
@@ -41,6 +57,15 @@ pub enum Stream {
     GBuffer = 4,
     /// The visibility buffer's triangle and instance ids per sample.
     Visibility = 5,
+    /// Memoization-cache lookups of a triangle key ([`memo_key`]), not memory.
+    Memo = 6,
+    /// Reads of a stored triangle, logged by its [`memo_key`] and replayed at its slot.
+    TriangleBuffer = 7,
+}
+
+/// The key a triangle is memoized and read under: its setup index in its view, and the view.
+pub fn memo_key(view: u8, tri: u32) -> u64 {
+    u64::from(tri) << 1 | u64::from(view & 1)
 }
 
 /// Log entries are 32-bit: a line number below 2^31 and a write bit. Every stream's address
@@ -48,7 +73,7 @@ pub enum Stream {
 /// mips and the shadow map, about 2^25 lines.
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
-const STREAMS: usize = 6;
+const STREAMS: usize = 8;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
 /// replays only its own accesses), cut into segments, one per command that made accesses.
@@ -156,6 +181,9 @@ pub struct CacheSizes {
     pub texture: u64,
     pub gbuffer: u64,
     pub visibility: u64,
+    pub triangle_buffer: u64,
+    /// Entries of the memoization cache (0: none).
+    pub memo_entries: u64,
 }
 
 /// One set-associative LRU cache, or the part of one that holds the sets `part` of
@@ -184,10 +212,13 @@ impl Cache {
     }
 
     fn part(bytes: u64, part: u64, parts: u64) -> Cache {
-        debug_assert!(parts.is_power_of_two() && part < parts);
         let lines = (bytes / LINE_BYTES).max(1) as usize;
         let ways = WAYS.min(lines);
-        let sets = (lines / ways).max(1) as u64;
+        Cache::shaped((lines / ways).max(1) as u64, ways, part, parts)
+    }
+
+    fn shaped(sets: u64, ways: usize, part: u64, parts: u64) -> Cache {
+        debug_assert!(parts.is_power_of_two() && part < parts);
         Cache {
             sets,
             ways,
@@ -273,11 +304,76 @@ impl LineSet {
     }
 }
 
+/// What one frame's replay gives.
+#[derive(Debug, PartialEq)]
+pub struct Replayed {
+    pub traffic: Traffic,
+    pub caches: CacheReport,
+    /// The memoization cache, when the frame looked triangles up in one.
+    pub memo: Option<MemoOutcome>,
+}
+
+/// The memoization cache's replay, per view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoOutcome {
+    /// Lookups that missed: each stored its triangle in a new slot.
+    pub misses: [u64; 2],
+    /// Misses on a triangle stored before (evicted since).
+    pub redundant: [u64; 2],
+}
+
+/// The triangle buffer's slots: where each key was first stored.
+struct Slots(Vec<u32>);
+
+impl Slots {
+    const NONE: u32 = u32::MAX;
+
+    /// The lines holding the record of `key` (a record may straddle two), if it was stored.
+    fn lines(&self, key: u64) -> Option<(u64, u64)> {
+        let slot = *self.0.get(key as usize)?;
+        (slot != Slots::NONE).then(|| {
+            let start = u64::from(slot) * TRIANGLE_RECORD_BYTES;
+            (start / LINE_BYTES, (start + TRIANGLE_RECORD_BYTES - 1) / LINE_BYTES)
+        })
+    }
+}
+
+/// Replays the memoization cache (one part: its misses allocate slots in order).
+fn replay_memo(entries: u64, segments: &[LogSegment]) -> (MemoOutcome, Slots, CacheStats) {
+    let ways = MEMO_WAYS as usize;
+    let mut cache = Cache::shaped((entries / MEMO_WAYS).max(1), ways, 0, 1);
+    let mut outcome = MemoOutcome::default();
+    let mut slots = Slots(Vec::new());
+    let mut next = 0u32;
+    for &(log, i) in segments {
+        for &entry in log.stream(i, Stream::Memo as usize) {
+            let key = u64::from(entry & LINE_MASK);
+            if !cache.access(key, false).0 {
+                continue;
+            }
+            let view = (key & 1) as usize;
+            outcome.misses[view] += 1;
+            let k = key as usize;
+            if k >= slots.0.len() {
+                slots.0.resize(k + 1, Slots::NONE);
+            }
+            if slots.0[k] == Slots::NONE {
+                slots.0[k] = next;
+            } else {
+                outcome.redundant[view] += 1;
+            }
+            next = next.saturating_add(1);
+        }
+    }
+    (outcome, slots, cache.stats)
+}
+
 /// Replays the accesses of one frame, segment by segment in the given order, through
 /// fresh caches.
-pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheReport) {
-    // The four caches are independent: each replays its own stream of the same order, in
-    // parts of its sets, one task per part (the counts do not depend on how many).
+pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
+    let (memo, slots, memo_stats) = replay_memo(sizes.memo_entries, segments);
+    // The caches are independent: each replays its own stream of the same order, in parts
+    // of its sets, one task per part (the counts do not depend on how many).
     // A power of two, so that a set's part is a mask of its index.
     let parts = 1u64 << rayon::current_num_threads().max(1).ilog2();
     let run_part = |stream: Stream, bytes: u64, part: u64| {
@@ -289,62 +385,73 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
             stream,
             Stream::Depth | Stream::Color | Stream::GBuffer | Stream::Visibility
         );
+        let mut access = |line: u64, write: bool| {
+            if !cache.holds(line) {
+                return;
+            }
+            let (miss, evicted_dirty) = cache.access(line, write);
+            if miss {
+                if framebuffer && !written.contains(line) {
+                    cache.stats.cleared_fills += 1;
+                } else {
+                    dram_lines += 1;
+                }
+            }
+            if evicted_dirty {
+                writebacks += 1;
+            }
+            if write {
+                written.insert(line);
+            }
+        };
         for &(log, i) in segments {
             for &entry in log.stream(i, stream as usize) {
                 let line = u64::from(entry & LINE_MASK);
-                if !cache.holds(line) {
-                    continue;
-                }
                 let write = entry & WRITE_BIT != 0;
-                let (miss, evicted_dirty) = cache.access(line, write);
-                if miss {
-                    if framebuffer && !written.contains(line) {
-                        cache.stats.cleared_fills += 1;
-                    } else {
-                        dram_lines += 1;
+                if stream == Stream::TriangleBuffer {
+                    if let Some((first, last)) = slots.lines(line) {
+                        (first..=last).for_each(|l| access(l, write));
                     }
-                }
-                if evicted_dirty {
-                    writebacks += 1;
-                }
-                if write {
-                    written.insert(line);
+                } else {
+                    access(line, write);
                 }
             }
         }
         writebacks += cache.flush();
         (dram_lines, writebacks, cache.stats)
     };
-    let run = |stream: Stream, bytes: u64| {
-        (0..parts)
-            .into_par_iter()
-            .map(|part| run_part(stream, bytes, part))
-            .collect::<Vec<_>>()
-            .into_iter()
-            .fold((0, 0, CacheStats::default()), |(d, w, mut stats), (pd, pw, ps)| {
-                stats.add(&ps);
-                (d + pd, w + pw, stats)
-            })
+    const REPLAYED: [Stream; 7] = [
+        Stream::Depth,
+        Stream::Color,
+        Stream::TriangleData,
+        Stream::Texture,
+        Stream::GBuffer,
+        Stream::Visibility,
+        Stream::TriangleBuffer,
+    ];
+    let bytes = |stream: Stream| match stream {
+        Stream::Depth => sizes.depth,
+        Stream::Color => sizes.color,
+        Stream::TriangleData => sizes.triangle_data,
+        Stream::Texture => sizes.texture,
+        Stream::GBuffer => sizes.gbuffer,
+        Stream::Visibility => sizes.visibility,
+        Stream::TriangleBuffer | Stream::Memo => sizes.triangle_buffer,
     };
-    let ((((depth, color), (tri, tex)), gbuffer), visibility) = rayon::join(
-        || {
-            rayon::join(
-                || {
-                    rayon::join(
-                        || rayon::join(|| run(Stream::Depth, sizes.depth), || run(Stream::Color, sizes.color)),
-                        || {
-                            rayon::join(
-                                || run(Stream::TriangleData, sizes.triangle_data),
-                                || run(Stream::Texture, sizes.texture),
-                            )
-                        },
-                    )
-                },
-                || run(Stream::GBuffer, sizes.gbuffer),
-            )
-        },
-        || run(Stream::Visibility, sizes.visibility),
-    );
+    let results: Vec<(u64, u64, CacheStats)> = REPLAYED
+        .par_iter()
+        .flat_map(|&stream| (0..parts).into_par_iter().map(move |part| (stream, part)))
+        .map(|(stream, part)| run_part(stream, bytes(stream), part))
+        .collect();
+    let [depth, color, tri, tex, gbuffer, visibility, triangle_buffer] = std::array::from_fn(|s| {
+        results[s * parts as usize..(s + 1) * parts as usize].iter().fold(
+            (0, 0, CacheStats::default()),
+            |(d, w, mut stats), (pd, pw, ps)| {
+                stats.add(ps);
+                (d + pd, w + pw, stats)
+            },
+        )
+    });
     let mut traffic = Traffic::default();
     traffic.add_bytes(
         DEPTH_COLOR,
@@ -352,23 +459,30 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> (Traffic, CacheRe
     );
     traffic.add_bytes(TRIANGLE_DATA, (tri.0 + tri.1) * LINE_BYTES);
     traffic.add_bytes(TEXTURE, (tex.0 + tex.1) * LINE_BYTES);
-    let used_gbuffer = gbuffer.2.accesses > 0;
-    if used_gbuffer {
-        traffic.add_bytes(GBUFFER, (gbuffer.0 + gbuffer.1) * LINE_BYTES);
+    let used = |stats: &CacheStats| stats.accesses > 0;
+    for (class, replayed) in [
+        (GBUFFER, &gbuffer),
+        (VISIBILITY, &visibility),
+        (TRIANGLE_BUFFER, &triangle_buffer),
+    ] {
+        if used(&replayed.2) {
+            traffic.add_bytes(class, (replayed.0 + replayed.1) * LINE_BYTES);
+        }
     }
-    let used_visibility = visibility.2.accesses > 0;
-    if used_visibility {
-        traffic.add_bytes(VISIBILITY, (visibility.0 + visibility.1) * LINE_BYTES);
-    }
-    let report = CacheReport {
+    let caches = CacheReport {
         depth: depth.2,
         color: color.2,
         triangle_data: tri.2,
         texture: tex.2,
-        gbuffer: used_gbuffer.then_some(gbuffer.2),
-        visibility: used_visibility.then_some(visibility.2),
+        gbuffer: used(&gbuffer.2).then_some(gbuffer.2),
+        visibility: used(&visibility.2).then_some(visibility.2),
+        triangle_buffer: used(&triangle_buffer.2).then_some(triangle_buffer.2),
     };
-    (traffic, report)
+    Replayed {
+        traffic,
+        caches,
+        memo: used(&memo_stats).then_some(memo),
+    }
 }
 
 #[cfg(test)]
@@ -403,6 +517,8 @@ mod tests {
             texture: LINE_BYTES,
             gbuffer: 4096,
             visibility: 4096,
+            triangle_buffer: 4096,
+            memo_entries: 0,
         };
         // Depth line 7 written, evicted by 8, read again: one writeback, one real fill.
         let l = log(&[
@@ -410,7 +526,11 @@ mod tests {
             (Stream::Depth, 8, false),
             (Stream::Depth, 7, false),
         ]);
-        let (traffic, report) = simulate(sizes, &[(&l, 0)]);
+        let Replayed {
+            traffic,
+            caches: report,
+            ..
+        } = simulate(sizes, &[(&l, 0)]);
         assert_eq!(report.depth.misses, 3);
         assert_eq!(report.depth.cleared_fills, 2);
         assert_eq!(report.depth.writebacks, 1);
@@ -420,8 +540,44 @@ mod tests {
             (Stream::Texture, 1, false),
             (Stream::Texture, 2, false),
         ]);
-        let (traffic, _) = simulate(sizes, &[(&t, 0)]);
+        let traffic = simulate(sizes, &[(&t, 0)]).traffic;
         assert_eq!(traffic.bytes(TEXTURE), 2 * LINE_BYTES);
+    }
+
+    #[test]
+    fn memo_misses_allocate_the_slots_the_triangle_buffer_is_read_at() {
+        // Two buckets of two: keys 0, 2, 4 share bucket 0, so 4 evicts 0 (LRU) and the
+        // second lookup of 0 stores it again.
+        let l = log(&[
+            (Stream::Memo, 0, false),
+            (Stream::Memo, 2, false),
+            (Stream::Memo, 4, false),
+            (Stream::Memo, 0, false),
+            (Stream::Memo, 3, false),
+            (Stream::TriangleBuffer, 4, false),
+            (Stream::TriangleBuffer, 3, false),
+        ]);
+        let sizes = CacheSizes {
+            depth: LINE_BYTES,
+            color: LINE_BYTES,
+            triangle_data: LINE_BYTES,
+            texture: LINE_BYTES,
+            gbuffer: 4096,
+            visibility: 4096,
+            triangle_buffer: 4096,
+            memo_entries: 4,
+        };
+        let replayed = simulate(sizes, &[(&l, 0)]);
+        let memo = replayed.memo.expect("lookups were logged");
+        assert_eq!(memo.misses, [4, 1]);
+        assert_eq!(memo.redundant, [1, 0]);
+        // Key 4 sits in slot 2 (bytes 160..240, line 0), key 3 in slot 4 (320..400: line 1).
+        let tb = replayed.caches.triangle_buffer.expect("read");
+        assert_eq!((tb.accesses, tb.misses), (2, 2));
+        assert_eq!(replayed.traffic.bytes(TRIANGLE_BUFFER), 2 * LINE_BYTES);
+        // A record across a line boundary is two lines: slot 3 is bytes 240..320.
+        assert_eq!(Slots(vec![0, 1, 2, 3]).lines(3), Some((0, 1)));
+        assert_eq!(Slots(vec![0]).lines(5), None);
     }
 
     #[test]
@@ -439,7 +595,9 @@ mod tests {
                     Stream::TriangleData,
                     Stream::Texture,
                     Stream::GBuffer,
-                ][(x >> 60) as usize % 5];
+                    Stream::Memo,
+                    Stream::TriangleBuffer,
+                ][(x >> 60) as usize % 7];
                 l.touch(stream, (x >> 33) % 300, x >> 20 & 1 == 1);
             }
         }
@@ -450,6 +608,8 @@ mod tests {
             texture: 64 * LINE_BYTES,
             gbuffer: 4096,
             visibility: 4096,
+            triangle_buffer: 4096,
+            memo_entries: 64,
         };
         let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();
         let with = |threads| {

@@ -60,7 +60,12 @@ pub struct JobOutput {
     pub buffers: Vec<SampleBuffer>,
     /// DRAM bytes that bypass the caches (light lists written and read once).
     pub traffic: Traffic,
+    /// The scheme's named event counts ([`Accounting::count`]).
+    pub counters: Counters,
 }
+
+/// Named event counts of a scheme, summed over a frame's jobs.
+pub type Counters = BTreeMap<&'static str, u64>;
 
 impl JobContext<'_> {
     /// What passes over view `view` may read.
@@ -91,6 +96,7 @@ impl JobOutput {
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
             traffic: Traffic::default(),
+            counters: Counters::new(),
         }
     }
 
@@ -100,6 +106,7 @@ impl JobOutput {
         let heat = &mut self.heat;
         let refinement = &mut self.refinement;
         let traffic = &mut self.traffic;
+        let counters = &mut self.counters;
         f(&mut Accounting {
             cost: &mut self.cost[v],
             log,
@@ -113,6 +120,7 @@ impl JobOutput {
             },
             cache: &mut self.cache[v],
             traffic: &mut |class, bytes| traffic.add_bytes(class, bytes),
+            count: &mut |name, n| *counters.entry(name).or_default() += n,
         })
     }
 }
@@ -255,6 +263,7 @@ fn geometry_command(
         };
         let visible = VisibleQuads {
             quads: &scratch.quads,
+            tri: unit.tri,
             tile: unit.tile,
             rect: buffer.rect,
             samples,

@@ -17,7 +17,8 @@ mod view_pass;
 
 use rayon::prelude::*;
 use shadetrace_formats::results::{
-    CacheReport, ListStats, RasterStats, ShadingCacheStats, ShadingCost, ShadowPassStats, Traffic, VertexStats,
+    CacheReport, DaisStats, ListStats, RasterStats, ShadingCacheStats, ShadingCost, ShadowPassStats, Traffic,
+    VertexStats,
 };
 use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
 use std::sync::{Arc, Mutex};
@@ -25,15 +26,16 @@ use std::sync::{Arc, Mutex};
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
 use crate::geometry::FrameGeometry;
-use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, RenderTarget, TRIANGLE_DATA};
+use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, RenderTarget, Replayed, TRIANGLE_DATA};
 use crate::options::ReplayOptions;
 use crate::raster::sample_offsets;
 use crate::schedule::{ScheduleInput, Scheduler, INDICES};
-use crate::scheme::{Passes, ShadingScheme};
+use crate::scheme::{FinishedFrame, Passes, ShadingScheme};
 use crate::shader::{ShaderEnv, ShadingLight};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
+pub use job::Counters;
 pub use job::VERTEX_BYTES;
 use job::{run_job, JobContext, JobOutput};
 pub use resolve::clear_pixel;
@@ -108,6 +110,8 @@ pub struct FrameOutput {
     pub gbuffer_bytes: Option<u64>,
     /// Bytes of the visibility buffer of both views, when the scheme wrote one.
     pub visibility_bytes: Option<u64>,
+    /// Deferred attribute interpolation's buffers and memoization cache.
+    pub dais: Option<DaisStats>,
     /// Wall time of each stage of this frame.
     pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
@@ -185,10 +189,11 @@ pub fn run_frame(
     let grid = TileGrid::new(width, height, opts.tile);
     let bins = Bins::build(grid, setups);
     let schedule = scheduler.schedule(&ScheduleInput { bins: &bins, setups });
+    let z_prepass = opts.z_prepass || scheme.depth_prepass();
     let jobs: Vec<Job> = schedule
         .jobs
         .into_iter()
-        .map(|job| commands_for(job, opts.z_prepass, scheme.passes()))
+        .map(|job| commands_for(job, z_prepass, scheme.passes()))
         .collect();
     clock.lap("bins");
     let layout = FramebufferLayout::new(width, height, opts.msaa);
@@ -203,7 +208,7 @@ pub fn run_frame(
         layout,
         offsets: sample_offsets(opts.msaa),
         simd_width: opts.simd_width,
-        z_prepass: opts.z_prepass,
+        z_prepass,
         keep_buffers: declared.is_some(),
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
@@ -224,10 +229,20 @@ pub fn run_frame(
         triangle_data: opts.triangle_cache_kb as u64 * 1024,
         texture: opts.texture_cache_kb as u64 * 1024,
         gbuffer: layout.cache_bytes(RenderTarget::GBuffer, opts.tile, opts.framebuffer_cache_tiles),
-        visibility: layout.cache_bytes(RenderTarget::Visibility, opts.tile, opts.framebuffer_cache_tiles),
+        visibility: scheme
+            .visibility_targets()
+            .iter()
+            .map(|&t| layout.cache_bytes(t, opts.tile, opts.framebuffer_cache_tiles))
+            .sum(),
+        triangle_buffer: opts.triangle_cache_kb as u64 * 1024,
+        memo_entries: opts.memo_entries,
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
-    let (mut traffic, caches) = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
+    let Replayed {
+        mut traffic,
+        caches,
+        memo,
+    } = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
     // Bytes the jobs moved past the caches (light lists), in job order.
     for out in &outputs {
         traffic.add(&out.traffic);
@@ -255,13 +270,30 @@ pub fn run_frame(
         _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
     };
     let (left, right) = rayon::join(|| assemble_view(0, left), || assemble_view(1, right));
-    let views = [left, right];
+    let mut views = [left, right];
     clock.lap("assemble");
+    let mut counters = Counters::new();
+    for (name, n) in outputs.iter().flat_map(|out| &out.counters) {
+        *counters.entry(name).or_default() += n;
+    }
+    let finished = FinishedFrame {
+        layout,
+        memo,
+        counters: &counters,
+        simd_width: opts.simd_width,
+        memo_entries: opts.memo_entries,
+    };
+    let [l, r] = &mut views;
+    let dais = scheme.finish_frame(&finished, [&mut l.cost, &mut r.cost], &mut traffic);
     FrameOutput {
         views,
         traffic,
         gbuffer_bytes: caches.gbuffer.map(|_| 2 * layout.bytes(RenderTarget::GBuffer)),
-        visibility_bytes: caches.visibility.map(|_| 2 * layout.bytes(RenderTarget::Visibility)),
+        visibility_bytes: caches.visibility.map(|_| {
+            let targets = scheme.visibility_targets();
+            targets.iter().map(|&t| 2 * layout.bytes(t)).sum()
+        }),
+        dais,
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),
@@ -344,7 +376,7 @@ fn memory_pass(
     jobs: &[Job],
     outputs: &[JobOutput],
     view_pass: Option<&[JobOutput]>,
-) -> (Traffic, CacheReport) {
+) -> Replayed {
     let mut order: Vec<(u8, [u64; 4], usize, usize)> = Vec::new();
     for (j, out) in outputs.iter().enumerate() {
         for (segment, index) in out.log.segments() {

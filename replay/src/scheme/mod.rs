@@ -3,6 +3,7 @@
 //! visibility receives each finished tile's samples. Both spend instructions through the
 //! cost model. A scheme never knows the scheduler's order beyond the commands it is given.
 
+mod dais;
 mod deferred;
 mod light_lists;
 pub mod multirate;
@@ -10,16 +11,17 @@ mod per_pixel;
 pub mod registry;
 pub mod shading_cache;
 
+pub use dais::{Dais, Variant};
 pub use deferred::{Deferred, Lists, Target};
 pub use multirate::{Multirate, MultirateConfig};
 pub use per_pixel::PerPixel;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use shadetrace_formats::results::{ShadingCacheStats, ShadingCost};
+use shadetrace_formats::results::{DaisStats, ShadingCacheStats, ShadingCost, Traffic};
 
 use crate::geometry::{FrameGeometry, Triangle};
-use crate::memory::{AccessLog, FramebufferLayout};
-use crate::pipeline::SampleBuffer;
+use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
+use crate::pipeline::{Counters, SampleBuffer};
 use crate::raster::pixel_center;
 use crate::shader::ShaderEnv;
 use crate::vertex_stage::SetupTriangle;
@@ -112,6 +114,8 @@ pub struct Accounting<'a> {
     pub cache: &'a mut ShadingCacheStats,
     /// DRAM bytes moved past the caches: `(traffic class, bytes)` (light lists).
     pub traffic: &'a mut dyn FnMut(&'static str, u64),
+    /// A named event count, summed over the frame for [`ShadingScheme::finish_frame`].
+    pub count: &'a mut dyn FnMut(&'static str, u64),
 }
 
 /// Refinement bits reported per pixel (heat maps of Fig. 5/13 of He et al.).
@@ -153,6 +157,38 @@ pub trait ShadingScheme: Sync {
         None
     }
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob>;
+
+    /// Runs a depth pre-pass whatever the options say (visibility after it is exact).
+    fn depth_prepass(&self) -> bool {
+        false
+    }
+
+    /// The targets the scheme keeps in the visibility stream (they size its cache and
+    /// make `visibility_bytes`).
+    fn visibility_targets(&self) -> &'static [RenderTarget] {
+        &[RenderTarget::Visibility]
+    }
+
+    /// The frame is done and its memory replayed: charge what depends on the replay (the
+    /// stores a memoization cache's misses made) and report the scheme's buffers.
+    fn finish_frame(
+        &self,
+        _frame: &FinishedFrame,
+        _costs: [&mut ShadingCost; 2],
+        _traffic: &mut Traffic,
+    ) -> Option<DaisStats> {
+        None
+    }
+}
+
+/// What [`ShadingScheme::finish_frame`] reads.
+pub struct FinishedFrame<'a> {
+    pub layout: FramebufferLayout,
+    pub memo: Option<MemoOutcome>,
+    pub counters: &'a Counters,
+    pub simd_width: u32,
+    /// Entries of the memoization cache (`--memo-entries`).
+    pub memo_entries: u64,
 }
 
 /// Per-job state of a scheme: one required method and lifecycle hooks that default to
@@ -203,6 +239,8 @@ pub trait SchemeJob {
 pub struct VisibleQuads<'a> {
     /// Each quad with its passing samples (bit `lane * samples + sample`).
     pub quads: &'a [(ShadeQuad, u32)],
+    /// The unit's setup triangle (its index in the view).
+    pub tri: u32,
     /// The tile (its index in the view's grid) and its rectangle.
     pub tile: u32,
     pub rect: crate::raster::Rect,

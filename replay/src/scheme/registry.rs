@@ -5,7 +5,7 @@
 use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{Deferred, Lists, PerPixel, ShadingScheme, Target};
+use super::{Dais, Deferred, Lists, PerPixel, ShadingScheme, Target, Variant};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 9] = [
+pub const SCHEMES: [SchemeEntry; 12] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -127,6 +127,41 @@ pub const SCHEMES: [SchemeEntry; 9] = [
             Box::new(Deferred {
                 target: Target::Visibility,
                 lists: Lists::None,
+            })
+        },
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "dais",
+        models: "Schied and Dachsbacher 2015: z-prepass, memoized triangle buffer (80 B), Eq. 2 interpolation",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| {
+            Box::new(Dais {
+                variant: Variant::Samples,
+            })
+        },
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "dais-list",
+        models: "DAIS with a per-pixel linked list of visibility samples (32-bit heads, 64-bit nodes)",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| Box::new(Dais { variant: Variant::List }),
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "dais-multirate",
+        models: "DAIS with lighting at shading rate 1/2 (2x2 shading quads, LogLuv shading samples)",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| {
+            Box::new(Dais {
+                variant: Variant::Multirate,
             })
         },
         supports: opaque_only,
