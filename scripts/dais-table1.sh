@@ -2,7 +2,8 @@
 # DAIS Table 1 (Schied and Dachsbacher 2015) on our traces: one frame at 3840x2160 with 8x
 # MSAA of `deferred`, `dais`, `dais-list` and `dais-multirate`; memory per view in MiB (the
 # paper's "MB" are MiB: its 1265.62 is 3840 x 2160 x 8 x 20 bytes), the triangle buffer,
-# the memoization cache's hits and redundant stores, relative shading cost and SSIM.
+# the memoization cache's hits and redundant stores, relative shading cost, DRAM traffic per
+# view and SSIM.
 # Usage: scripts/dais-table1.sh OUT TRACE... [-- replay flags]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,7 +29,7 @@ out, traces = sys.argv[1], sys.argv[2:]
 mib = lambda b: b / 2 / 2**20  # both views -> one view, MiB
 paper = {"deferred": 1265.62, "dais": 509.09, "dais-list": 293.50, "dais-multirate": 782.00}
 print(f"{'trace':<22} {'preset':<15} {'total MiB':>10} {'% deferred':>10} {'paper %':>8} {'tri buf MiB':>11}"
-      f" {'list MiB':>8} {'samples MiB':>11} {'hit %':>7} {'redund.':>8} {'cost %':>7} {'min SSIM':>9}")
+      f" {'list MiB':>8} {'samples MiB':>11} {'hit %':>7} {'redund.':>8} {'cost %':>7} {'DRAM MiB':>9} {'min SSIM':>9}")
 for trace in traces:
     name = os.path.basename(trace).removesuffix(".strace")
     base = None
@@ -45,7 +46,8 @@ for trace in traces:
         red = d["redundant_stores"] if d else 0
         cost = 100 * (r["total"].get("relative_cost") or float("nan"))
         ssim = r["total"].get("min_ssim") or float("nan")
+        dram = sum(f["traffic"].values())
         print(f"{name:<22} {preset:<15} {mib(total):>10.2f} {100 * total / base:>9.1f}% "
               f"{100 * paper[preset] / paper['deferred']:>7.1f}% {mib(tri):>11.3f} {mib(nodes):>8.2f} "
-              f"{mib(samples):>11.2f} {hits:>7.2f} {red:>8} {cost:>6.1f}% {ssim:>9.5f}")
+              f"{mib(samples):>11.2f} {hits:>7.2f} {red:>8} {cost:>6.1f}% {mib(dram):>9.1f} {ssim:>9.6f}")
 PY

@@ -344,3 +344,39 @@ fn the_deferred_family_survives_tiny_and_empty_views() {
         }
     }
 }
+
+/// No light at all, and one light whose range covers the whole room: the lists hold
+/// nothing or everything, and every deferred scheme keeps its relation to `forward`.
+#[test]
+fn zero_lights_and_a_light_covering_the_view() {
+    let dir = tempfile::tempdir().unwrap();
+    for n in ["0", "1"] {
+        let trace = dir.path().join(format!("lights{n}.strace")).display().to_string();
+        let scene = format!("builtin:light-room?lights={n}");
+        common::shadetrace_ok(&["capture", &scene, "-o", &trace, "--frames", "1", "--quiet"], None);
+        let run = |preset: &str| {
+            let out = dir.path().join(format!("{preset}-{n}"));
+            let r = replay_into(&trace, preset, &["--res", "64x72", "--msaa", "4"], None, &out);
+            (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+        };
+        let (deferred, deferred_pixels) = run("deferred");
+        common::assert_sane(&deferred, n);
+        for preset in ["tiled", "clustered"] {
+            assert!(
+                run(preset).1 == deferred_pixels,
+                "{n} lights: {preset} differs from deferred"
+            );
+        }
+        let (_, forward_pixels) = run("forward");
+        assert!(
+            run("visbuffer").1 == forward_pixels,
+            "{n} lights: visbuffer differs from forward"
+        );
+        let (dais, _) = run("dais");
+        assert!(
+            dais["total"]["min_ssim"].as_f64().unwrap() > 0.999,
+            "{n} lights: {}",
+            dais["total"]
+        );
+    }
+}

@@ -21,7 +21,7 @@ pub const BUILTIN_SCENES: [(&str, &str); 6] = [
     ("spheres", "five textured specular spheres at tessellation levels 2..32 quads/patch, with patch ids (?subdiv=0..6 for one level)"),
     ("hairball", "ball of thin ribbons of tiny triangles (a few pixels each)"),
     ("depth-stack", "six staggered fence layers in front of a wall: overdraw and disocclusions"),
-    ("light-room", "closed room lit by 48 point lights, no shadowed light (?lights=1..1024: a 3D grid of N shorter-ranged lights)"),
+    ("light-room", "closed room lit by 48 point lights, no shadowed light (?lights=0..1024: a 3D grid of N shorter-ranged lights)"),
     ("arena", "the tile-pair paper's regime: a sunlit, open-topped arena of large textured triangles with a skinned dragon, seen from inside"),
 ];
 
@@ -41,8 +41,8 @@ pub fn build(spec: &str) -> Result<(SourceScene, Orbit)> {
                 let n: u32 = value
                     .parse()
                     .ok()
-                    .filter(|n| (1..=MAX_LIGHTS).contains(n))
-                    .ok_or_else(|| Error::Options(format!("builtin:{spec}: lights must be 1..={MAX_LIGHTS}")))?;
+                    .filter(|n| *n <= MAX_LIGHTS)
+                    .ok_or_else(|| Error::Options(format!("builtin:{spec}: lights must be 0..={MAX_LIGHTS}")))?;
                 lights = Some(n);
             }
             Some(("subdiv", value)) if name == "spheres" => {
