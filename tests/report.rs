@@ -205,10 +205,15 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         (html, links)
     };
     let (html, links) = report("first");
+    // Forward and sort-middle draw the same pixels: one thumbnail, captioned with both, and
+    // each its own cost map.
     assert!(
-        links.iter().any(|l| l == "sort-middle/frame0000-stereo.png"),
+        links.iter().any(|l| l == "forward/frame0000-stereo.png")
+            && !links.iter().any(|l| l == "sort-middle/frame0000-stereo.png"),
         "{links:?}"
     );
+    assert!(html.contains("<figcaption>forward = sort-middle</figcaption>"));
+    assert!(links.iter().any(|l| l == "sort-middle/frame0000-left-cost.png"), "{links:?}");
     // Every figure is also a standalone SVG and PNG beside the page, linked under it.
     for figure in ["traffic.svg", "traffic.png", "cost-quality.svg", "cost-quality.png"] {
         assert!(html.contains(&format!("<a href=\"{figure}\">")), "{figure} not linked");
@@ -216,7 +221,7 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
     assert!(html.contains("error against the reference") && html.contains("data:image/jpeg;base64,"));
     assert!(html.contains("SSIM loss against the reference") && html.contains("Pareto front"));
     assert!(
-        links.iter().any(|l| l == "sort-middle/frame0000-left-ssim.png"),
+        links.iter().any(|l| l == "forward/frame0000-left-ssim.png"),
         "the SSIM map links to its file: {links:?}"
     );
     let (_, links) = report("none");

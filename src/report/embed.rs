@@ -3,17 +3,52 @@
 
 use shadetrace_replay::images::Rgba8Image;
 
-/// A heat map thumbnail as a PNG `data:` URI: RGB (the maps are opaque) at the best
-/// compression, which keeps the page about a sixth smaller than default RGBA PNGs.
+/// A heat map thumbnail as a PNG `data:` URI at the best compression: indexed colour when
+/// it has at most 256 colours (the heat maps' table, the legend's black and white: about
+/// half the size of RGB), RGB otherwise (the maps are opaque).
 pub fn png_data_uri(image: &Rgba8Image) -> Result<String, String> {
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    use image::{ExtendedColorType, ImageEncoder};
-    let rgb: Vec<u8> = image.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
-    let mut png = Vec::new();
-    PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
-        .write_image(&rgb, image.width, image.height, ExtendedColorType::Rgb8)
-        .map_err(|e| format!("encoding a thumbnail: {e}"))?;
-    Ok(data_uri("image/png", &png))
+    let err = |e: png::EncodingError| format!("encoding a thumbnail: {e}");
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, image.width, image.height);
+    encoder.set_compression(png::Compression::High);
+    encoder.set_depth(png::BitDepth::Eight);
+    let data = match palette(image) {
+        Some((colours, indices)) => {
+            encoder.set_color(png::ColorType::Indexed);
+            encoder.set_palette(colours);
+            indices
+        }
+        None => {
+            encoder.set_color(png::ColorType::Rgb);
+            image.pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect()
+        }
+    };
+    let mut writer = encoder.write_header().map_err(err)?;
+    writer.write_image_data(&data).map_err(err)?;
+    writer.finish().map_err(err)?;
+    Ok(data_uri("image/png", &bytes))
+}
+
+/// The image's colours (RGB, in order of first appearance) and each pixel's index, when
+/// there are at most 256.
+fn palette(image: &Rgba8Image) -> Option<(Vec<u8>, Vec<u8>)> {
+    let mut colours: Vec<[u8; 3]> = Vec::new();
+    let mut index_of: std::collections::HashMap<[u8; 3], u8> = std::collections::HashMap::new();
+    let mut indices = Vec::with_capacity(image.pixels.len());
+    for p in &image.pixels {
+        let rgb = [p[0], p[1], p[2]];
+        let i = match index_of.get(&rgb) {
+            Some(&i) => i,
+            None => {
+                let i = u8::try_from(colours.len()).ok()?;
+                colours.push(rgb);
+                index_of.insert(rgb, i);
+                i
+            }
+        };
+        indices.push(i);
+    }
+    Some((colours.concat(), indices))
 }
 
 /// JPEG quality of the rendered views' thumbnails: a fifth of their PNG size, which keeps a
@@ -89,18 +124,31 @@ mod tests {
         assert_eq!(data_uri("image/png", b"foob"), "data:image/png;base64,Zm9vYg==");
     }
 
-    #[test]
-    fn heat_map_thumbnails_are_rgb_pngs_of_the_same_pixels() {
+    fn decode(uri: &str) -> image::DynamicImage {
         use base64::Engine;
-        let mut image = Rgba8Image::new(3, 2);
-        image.pixels[4] = [10, 200, 30, 255];
-        let uri = png_data_uri(&image).unwrap();
         let png = base64::engine::general_purpose::STANDARD
             .decode(uri.strip_prefix("data:image/png;base64,").unwrap())
             .unwrap();
-        let decoded = image::load_from_memory(&png).unwrap();
+        image::load_from_memory(&png).unwrap()
+    }
+
+    #[test]
+    fn heat_map_thumbnails_are_pngs_of_the_same_pixels() {
+        // Few colours: indexed.
+        let mut image = Rgba8Image::new(3, 2);
+        image.pixels[4] = [10, 200, 30, 255];
+        let uri = png_data_uri(&image).unwrap();
+        assert!(palette(&image).is_some_and(|(colours, _)| colours.len() == 2 * 3));
+        assert_eq!(decode(&uri).to_rgb8().get_pixel(1, 1).0, [10, 200, 30]);
+        // More than 256 colours: RGB, the same pixels.
+        let mut many = Rgba8Image::new(300, 1);
+        for (i, p) in many.pixels.iter_mut().enumerate() {
+            *p = [(i % 256) as u8, (i / 256) as u8, 7, 255];
+        }
+        assert!(palette(&many).is_none());
+        let decoded = decode(&png_data_uri(&many).unwrap());
         assert_eq!(decoded.color(), image::ColorType::Rgb8);
-        assert_eq!(decoded.to_rgb8().get_pixel(1, 1).0, [10, 200, 30]);
+        assert_eq!(decoded.to_rgb8().get_pixel(299, 0).0, [43, 1, 7]);
     }
 
     #[test]

@@ -272,12 +272,18 @@ fn render_section(
                     file_href(&section.files, &file)
                 })
             };
+            // Presets whose pictures are identical share one thumbnail in the picture grids.
+            let groups = identical_pictures(section.runs);
             let _ = write!(
                 h,
-                "<h3>Frame {frame}: stereo images (left | right)</h3>\n<div class=\"grid\">"
+                "<h3>Frame {frame}: stereo images (left | right)</h3>\n\
+                 <p class=\"note\">Presets with identical pictures (<code>a = b</code>) share a thumbnail here and \
+                 in the error and SSIM grids.</p>\n<div class=\"grid\">"
             );
-            for (run, uri) in section.runs.iter().zip(&images.stereo) {
-                figure(h, &run.result.preset, uri, link(run, "stereo").as_deref());
+            for group in &groups {
+                let run = &section.runs[group[0]];
+                let caption = group_caption(section.runs, group);
+                figure(h, &caption, &images.stereo[group[0]], link(run, "stereo").as_deref());
             }
             let _ = write!(
                 h,
@@ -286,7 +292,7 @@ fn render_section(
                  {ERROR_SCALE} scale for every preset and frame (larger errors saturate).</p>\n\
                  <div class=\"grid\">"
             );
-            compared_grid(h, section, &images.error, &|run| link(run, "left-error"));
+            compared_grid(h, section, &groups, &images.error, &|run| link(run, "left-error"));
             let _ = write!(
                 h,
                 "</div>\n<h3>Frame {frame}: SSIM loss against the reference (left | right)</h3>\n\
@@ -294,7 +300,7 @@ fn render_section(
                  column averages), on a fixed 0 to {SSIM_LOSS_SCALE} scale (larger losses saturate).</p>\n\
                  <div class=\"grid\">"
             );
-            compared_grid(h, section, &images.ssim_loss, &|run| link(run, "left-ssim"));
+            compared_grid(h, section, &groups, &images.ssim_loss, &|run| link(run, "left-ssim"));
             let _ = write!(
                 h,
                 "</div>\n<h3>Frame {frame}: shading cost per pixel (left | right)</h3>\n\
@@ -387,26 +393,56 @@ fn render_table(h: &mut String, section: &ReportSection) {
     h.push_str("</tbody>\n</table></div>\n");
 }
 
-/// One thumbnail per run of a picture made against the reference (`uris`, None for a run
-/// that has none), linked to the full-size file `link` gives.
+/// One thumbnail per group of runs with identical pictures, of a picture made against the
+/// reference (`uris`, None for a run that has none), linked to the full-size file `link`
+/// gives.
 fn compared_grid(
     h: &mut String,
     section: &ReportSection,
+    groups: &[Vec<usize>],
     uris: &[Option<String>],
     link: &dyn Fn(&RunOutput) -> Option<String>,
 ) {
-    for (run, uri) in section.runs.iter().zip(uris) {
-        match uri {
-            Some(uri) => figure(h, &run.result.preset, uri, link(run).as_deref()),
+    for group in groups {
+        let run = &section.runs[group[0]];
+        let caption = group_caption(section.runs, group);
+        match &uris[group[0]] {
+            Some(uri) => figure(h, &caption, uri, link(run).as_deref()),
             None => {
                 let _ = write!(
                     h,
                     "<figure><figcaption>{}: not compared</figcaption></figure>",
-                    escape(&run.result.preset)
+                    escape(&caption)
                 );
             }
         }
     }
+}
+
+/// The runs grouped by identical pictures of the shown frame (both views, every pixel), in
+/// order of first appearance.
+fn identical_pictures(runs: &[RunOutput]) -> Vec<Vec<usize>> {
+    let pictures = |i: usize| {
+        runs[i]
+            .first_images
+            .as_ref()
+            .map(|f| [&f.views[0].color, &f.views[1].color])
+    };
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for i in 0..runs.len() {
+        let same = |g: &&mut Vec<usize>| pictures(i).is_some() && pictures(g[0]) == pictures(i);
+        match groups.iter_mut().find(same) {
+            Some(group) => group.push(i),
+            None => groups.push(vec![i]),
+        }
+    }
+    groups
+}
+
+/// The presets of a group of runs, `a = b = c`.
+fn group_caption(runs: &[RunOutput], group: &[usize]) -> String {
+    let names: Vec<&str> = group.iter().map(|&i| runs[i].result.preset.as_str()).collect();
+    names.join(" = ")
 }
 
 /// A thumbnail with its caption, a link to the full-size picture when there is one.
