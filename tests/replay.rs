@@ -34,6 +34,8 @@ fn identical_results_and_images_at_any_thread_count() {
         ("depth-stack", "he-dynamic"),
         ("light-room", "deferred"),
         ("spheres", "dais-multirate"),
+        ("depth-stack", "repro-rt"),
+        ("arena", "repro-reraster"),
     ] {
         let res = ["--res", "160x180"];
         let (one, dir1) = replay(name, preset, &res, Some("1"), dir.path());

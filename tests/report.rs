@@ -213,7 +213,10 @@ fn report_thumbnails_link_to_pictures_that_exist_and_show_error_maps() {
         "{links:?}"
     );
     assert!(html.contains("<figcaption>forward = sort-middle</figcaption>"));
-    assert!(links.iter().any(|l| l == "sort-middle/frame0000-left-cost.png"), "{links:?}");
+    assert!(
+        links.iter().any(|l| l == "sort-middle/frame0000-left-cost.png"),
+        "{links:?}"
+    );
     // Every figure is also a standalone SVG and PNG beside the page, linked under it.
     for figure in ["traffic.svg", "traffic.png", "cost-quality.svg", "cost-quality.png"] {
         assert!(html.contains(&format!("<a href=\"{figure}\">")), "{figure} not linked");

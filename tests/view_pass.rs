@@ -13,14 +13,14 @@ use shadetrace_replay::cost_table::Block;
 use shadetrace_replay::pipeline::{run_frame, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
 use shadetrace_replay::schedule::Immediate;
 use shadetrace_replay::scheme::{
-    Accounting, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, UnitContext, ViewContext, ViewPass,
+    Accounting, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, UnitContext, ViewContext, ViewPass, WorkListState,
 };
 use shadetrace_replay::ReplayOptions;
 
 /// The example's stage for work-list pixels (a real back-end would trace rays there).
 const RAY: &str = "ray";
 
-/// `ViewPass { from: 0, to: 1 }`: the right view copied from the left one. With `from == to`
+/// `ViewPass { from: 0, to: 1, draw_to: false }`: the right view copied from the left one. With `from == to`
 /// (a per-view pass over the drawn right view) the copy is of the view onto itself.
 struct CopyLeft(ViewPass);
 
@@ -66,7 +66,7 @@ impl SchemeJob for CopyLeftJob {
         to: &mut SampleBuffer,
         work: &mut Vec<u32>,
         _: &mut Accounting,
-    ) {
+    ) -> Option<WorkListState> {
         for pixel in 0..from.width() * from.height() {
             let first = pixel as usize * from.samples;
             let samples = first..first + from.samples;
@@ -78,6 +78,7 @@ impl SchemeJob for CopyLeftJob {
             to.prim[samples.clone()].copy_from_slice(&from.prim[samples.clone()]);
             to.color[samples.clone()].copy_from_slice(&from.color[samples]);
         }
+        None
     }
 
     fn shade_pixels(
@@ -85,6 +86,7 @@ impl SchemeJob for CopyLeftJob {
         ctx: &ViewContext,
         _: &SampleBuffer,
         pixels: &[u32],
+        _: Option<&WorkListState>,
         colors: &mut Vec<Vec4>,
         acc: &mut Accounting,
     ) {
@@ -132,7 +134,11 @@ fn frame(threads: usize, scheme: &dyn ShadingScheme) -> FrameOutput {
 #[test]
 fn a_copied_right_view_equals_forward_and_holes_go_to_the_work_list() {
     let forward = frame(2, &PerPixel);
-    let copy = CopyLeft(ViewPass { from: 0, to: 1 });
+    let copy = CopyLeft(ViewPass {
+        from: 0,
+        to: 1,
+        draw_to: false,
+    });
     let copied = frame(2, &copy);
     assert!(forward.views[0].pixels == forward.views[1].pixels, "the eyes coincide");
     for v in 0..2 {
@@ -161,7 +167,14 @@ fn a_copied_right_view_equals_forward_and_holes_go_to_the_work_list() {
 #[test]
 fn a_per_view_pass_reworks_a_drawn_view() {
     let forward = frame(2, &PerPixel);
-    let reworked = frame(2, &CopyLeft(ViewPass { from: 1, to: 1 }));
+    let reworked = frame(
+        2,
+        &CopyLeft(ViewPass {
+            from: 1,
+            to: 1,
+            draw_to: false,
+        }),
+    );
     let (f, r) = (&forward.views[1], &reworked.views[1]);
     assert!(r.pixels == f.pixels);
     assert_eq!(r.raster.units, f.raster.units, "the view is drawn");

@@ -86,6 +86,36 @@ pub struct FrameResult {
     /// (`dais` schemes only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dais: Option<DaisStats>,
+    /// The right view made from the left one (`repro-*` presets only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reprojection: Option<ReprojectionStats>,
+}
+
+/// Hybrid reprojection (Wißmann et al. 2020): the adaptive warping grid, the holes it
+/// leaves in the right view and how they were filled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ReprojectionStats {
+    pub grid_cells: u64,
+    /// Cells whose binocular-parallax difference exceeds the threshold.
+    pub cells_over_threshold: u64,
+    /// Cells tessellated to one vertex per pixel: those, and their 4-neighbours.
+    pub cells_tessellated: u64,
+    pub grid_vertices: u64,
+    pub grid_triangles: u64,
+    /// Grid triangles across a depth discontinuity (rubber sheets), not drawn.
+    pub grid_triangles_discarded: u64,
+    /// Right-view pixels that the warped grid covers.
+    pub reprojected_pixels: u64,
+    /// Right-view pixels no kept grid triangle covers: traced or re-rasterized.
+    pub hole_pixels: u64,
+    /// Primary rays traced (`repro-rt`), the ones that hit, and the work of their traversal.
+    pub rays: u64,
+    pub ray_hits: u64,
+    pub node_visits: u64,
+    pub triangle_tests: u64,
+    /// The frame's BVH (`repro-rt`): nodes and bytes (nodes and triangles).
+    pub bvh_nodes: u64,
+    pub bvh_bytes: u64,
 }
 
 /// Deferred attribute interpolation (Schied and Dachsbacher 2015), both views: the
@@ -433,6 +463,9 @@ pub struct CacheReport {
     /// Reads of the triangle buffer (`dais` schemes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub triangle_buffer: Option<CacheStats>,
+    /// BVH fetches of ray traversal (`repro-rt`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bvh: Option<CacheStats>,
 }
 
 /// Binning lists (the tile-pair paper's Table 1 columns), both views together.

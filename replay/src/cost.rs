@@ -87,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 33] = [
+const FIXED_BLOCKS: [Block; 42] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -121,6 +121,15 @@ const FIXED_BLOCKS: [Block; 33] = [
     Block::ShadingSampleRef,
     Block::ShadingSampleWrite,
     Block::ShadingSampleRead,
+    Block::TessFactor,
+    Block::GridVertex,
+    Block::WarpFragment,
+    Block::RayGen,
+    Block::NodeVisit,
+    Block::TriangleTest,
+    Block::HitAttributes,
+    Block::RayCone,
+    Block::BvhBuild,
 ];
 
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that

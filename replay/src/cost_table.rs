@@ -106,6 +106,29 @@ pub enum Block {
     ShadingSampleWrite,
     /// DAIS multi-rate resolve: read the reference and the sample, LogLuv-decode it.
     ShadingSampleRead,
+    /// Reprojection, per grid cell: the tessellation factor from its depth bounds (two
+    /// linearizations, two arctangents of the binocular parallax, the threshold).
+    TessFactor,
+    /// Reprojection, per grid vertex (domain shader): fetch the left depth, the
+    /// reprojection matrix (4x4), the perspective divide, the viewport transform.
+    GridVertex,
+    /// Reprojection, per grid fragment: the bilinear lookup of the left image, the depth
+    /// test's output.
+    WarpFragment,
+    /// Ray-traced hole filling, per ray: origin and direction from the pixel (ray generation).
+    RayGen,
+    /// Per BVH node a ray visits: the slab tests of its two children, the stack.
+    NodeVisit,
+    /// Per triangle a ray tests: Möller-Trumbore.
+    TriangleTest,
+    /// Per hit: fetch the triangle's vertices and interpolate position, normal and uv from
+    /// the hit's barycentrics.
+    HitAttributes,
+    /// Per hit: the ray cone's footprint and the texture LOD (Akenine-Möller et al. 2019).
+    RayCone,
+    /// BVH build, per triangle (PLOC: bounds, Morton code, radix sort, nearest-neighbour
+    /// merging, over its passes).
+    BvhBuild,
 }
 
 impl Block {
@@ -135,6 +158,15 @@ impl Block {
             Block::ShadingSampleRef => (4, 0),
             Block::ShadingSampleWrite => (6, 0),
             Block::ShadingSampleRead => (6, 0),
+            Block::TessFactor => (14, 0),
+            Block::GridVertex => (24, 1),
+            Block::WarpFragment => (8, 1),
+            Block::RayGen => (10, 0),
+            Block::NodeVisit => (16, 0),
+            Block::TriangleTest => (24, 0),
+            Block::HitAttributes => (18, 0),
+            Block::RayCone => (10, 0),
+            Block::BvhBuild => (60, 0),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

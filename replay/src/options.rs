@@ -61,6 +61,20 @@ pub struct ReplayOptions {
     #[arg(long, default_value_t = DEFAULT_OPTIONS.memo_entries)]
     #[serde(skip_serializing_if = "default_memo_entries")]
     pub memo_entries: u64,
+    /// Reprojection: the warping grid's cell edge in pixels (the paper's 16).
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.grid_cell)]
+    #[serde(skip_serializing_if = "default_grid_cell")]
+    pub grid_cell: u32,
+    /// Reprojection: the binocular-parallax difference, in minutes of arc, above which a grid
+    /// cell is tessellated to pixels and a grid triangle is a depth discontinuity (the
+    /// paper's 1, the stereo acuity).
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.parallax_threshold)]
+    #[serde(serialize_with = "display", skip_serializing_if = "default_parallax")]
+    pub parallax_threshold: f32,
+    /// Ray-traced hole filling: BVH cache size in KiB.
+    #[arg(long, default_value_t = DEFAULT_OPTIONS.bvh_cache_kb)]
+    #[serde(skip_serializing_if = "default_bvh_cache")]
+    pub bvh_cache_kb: u32,
     #[command(flatten)]
     pub multirate: MultirateOptions,
 }
@@ -79,6 +93,9 @@ pub const DEFAULT_OPTIONS: ReplayOptions = ReplayOptions {
     scheduler: None,
     disparity_order: true,
     memo_entries: 1 << 13,
+    grid_cell: 16,
+    parallax_threshold: 1.0,
+    bvh_cache_kb: 32,
     multirate: crate::scheme::multirate::config::DEFAULT_MULTIRATE,
 };
 
@@ -111,6 +128,18 @@ impl ReplayOptions {
                 "--memo-entries {} must be a power of two within 2..=16777216",
                 self.memo_entries
             ));
+        }
+        if !(2..=256).contains(&self.grid_cell) {
+            return Err(format!("--grid-cell {} must be within 2..=256", self.grid_cell));
+        }
+        if !self.parallax_threshold.is_finite() || self.parallax_threshold < 0.0 {
+            return Err(format!(
+                "--parallax-threshold {} must be a finite number of arc minutes, at least 0",
+                self.parallax_threshold
+            ));
+        }
+        if self.bvh_cache_kb == 0 {
+            return Err("--bvh-cache-kb must be at least 1".into());
         }
         if self.framebuffer_cache_tiles == 0 {
             return Err("--fb-cache-tiles must be at least 1".into());
@@ -151,6 +180,18 @@ impl ReplayOptions {
 /// Added after goldens were first keyed: in the options map only when set.
 fn default_memo_entries(v: &u64) -> bool {
     *v == DEFAULT_OPTIONS.memo_entries
+}
+
+fn default_grid_cell(v: &u32) -> bool {
+    *v == DEFAULT_OPTIONS.grid_cell
+}
+
+fn default_parallax(v: &f32) -> bool {
+    *v == DEFAULT_OPTIONS.parallax_threshold
+}
+
+fn default_bvh_cache(v: &u32) -> bool {
+    *v == DEFAULT_OPTIONS.bvh_cache_kb
 }
 
 /// Nested objects become dotted keys; values their text.

@@ -67,7 +67,7 @@ const fn without_small_triangle_path(preset: Preset) -> Preset {
 /// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
 /// shading of small blocks would bypass. He et al.'s own presets keep their paper's
 /// coverage-bbox samples, small-triangle path and immediate pipeline.
-pub const PRESETS: [Preset; 19] = [
+pub const PRESETS: [Preset; 21] = [
     preset(
         "forward",
         "immediate",
@@ -213,6 +213,18 @@ pub const PRESETS: [Preset; 19] = [
         "immediate",
         "dais-multirate",
         "DAIS with lighting at shading rate 1/2 in 2x2 shading quads",
+    ),
+    preset(
+        "repro-rt",
+        "immediate",
+        "repro-rt",
+        "hybrid reprojection (Wißmann et al. 2020): left view deferred, right view warped by an adaptive grid, holes ray traced",
+    ),
+    preset(
+        "repro-reraster",
+        "immediate",
+        "repro-reraster",
+        "hybrid reprojection with rasterized hole filling: the right view drawn again, only its holes shaded",
     ),
 ];
 

@@ -331,6 +331,7 @@ impl Replay {
             gbuffer_bytes: out.gbuffer_bytes,
             visibility_bytes: out.visibility_bytes,
             dais: out.dais,
+            reprojection: out.reprojection,
         });
         *self.stages.entry("quality").or_default() += quality_started.elapsed();
         self.busy += started.elapsed();

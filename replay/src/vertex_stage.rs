@@ -120,10 +120,7 @@ pub fn setup_view(
                 .collect::<Vec<_>>()
         })
         .collect();
-    let guard = [
-        (GUARD_BAND_PX / (width as f64 * 0.5)) as f32,
-        (GUARD_BAND_PX / (height as f64 * 0.5)) as f32,
-    ];
+    let guard = guard_band(width, height);
     let results: Vec<(Vec<SetupTriangle>, VertexStats)> = geometry
         .triangles
         .par_chunks(SETUP_CHUNK)
@@ -147,6 +144,37 @@ pub fn setup_view(
         stats.add(&s);
     }
     (all, stats)
+}
+
+/// The guard band's half-extent in NDC units of a `width` x `height` view.
+fn guard_band(width: u32, height: u32) -> [f32; 2] {
+    [
+        (GUARD_BAND_PX / (width as f64 * 0.5)) as f32,
+        (GUARD_BAND_PX / (height as f64 * 0.5)) as f32,
+    ]
+}
+
+/// One triangle given in clip space through the same clipping, culling and snapping as
+/// [`setup_view`] (for triangles no trace holds, e.g. a reprojection's warping grid);
+/// `prim` is the id its setup triangles carry. Appends 0 or more triangles to `out`.
+pub fn setup_clip_triangle(
+    prim: u32,
+    verts: [Vec4; 3],
+    double_sided: bool,
+    (width, height): (u32, u32),
+    out: &mut Vec<SetupTriangle>,
+    stats: &mut VertexStats,
+) {
+    setup_triangle(
+        prim,
+        verts,
+        double_sided,
+        guard_band(width, height),
+        width,
+        height,
+        out,
+        stats,
+    );
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -29,6 +29,8 @@ pub const GBUFFER: &str = "gbuffer";
 pub const VISIBILITY: &str = "visibility";
 /// The triangle buffer of deferred attribute interpolation (reported only where used).
 pub const TRIANGLE_BUFFER: &str = "triangle_buffer";
+/// The BVH of ray-traced hole filling: its nodes and triangles (reported only where used).
+pub const BVH: &str = "bvh";
 /// Bytes of one triangle in the triangle buffer (Schied and Dachsbacher §5): 1/w, normal
 /// and uv, each with its x and y derivatives (18 floats), the material id and padding.
 pub const TRIANGLE_RECORD_BYTES: u64 = 80;
@@ -61,6 +63,8 @@ pub enum Stream {
     Memo = 6,
     /// Reads of a stored triangle, logged by its [`memo_key`] and replayed at its slot.
     TriangleBuffer = 7,
+    /// BVH nodes and triangles fetched by ray traversal.
+    Bvh = 8,
 }
 
 /// The key a triangle is memoized and read under: its setup index in its view, and the view.
@@ -73,7 +77,7 @@ pub fn memo_key(view: u8, tri: u32) -> u64 {
 /// mips and the shadow map, about 2^25 lines.
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
-const STREAMS: usize = 8;
+const STREAMS: usize = 9;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
 /// replays only its own accesses), cut into segments, one per command that made accesses.
@@ -182,6 +186,7 @@ pub struct CacheSizes {
     pub gbuffer: u64,
     pub visibility: u64,
     pub triangle_buffer: u64,
+    pub bvh: u64,
     /// Entries of the memoization cache (0: none).
     pub memo_entries: u64,
 }
@@ -420,7 +425,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         writebacks += cache.flush();
         (dram_lines, writebacks, cache.stats)
     };
-    const REPLAYED: [Stream; 7] = [
+    const REPLAYED: [Stream; 8] = [
         Stream::Depth,
         Stream::Color,
         Stream::TriangleData,
@@ -428,6 +433,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         Stream::GBuffer,
         Stream::Visibility,
         Stream::TriangleBuffer,
+        Stream::Bvh,
     ];
     let bytes = |stream: Stream| match stream {
         Stream::Depth => sizes.depth,
@@ -437,13 +443,14 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         Stream::GBuffer => sizes.gbuffer,
         Stream::Visibility => sizes.visibility,
         Stream::TriangleBuffer | Stream::Memo => sizes.triangle_buffer,
+        Stream::Bvh => sizes.bvh,
     };
     let results: Vec<(u64, u64, CacheStats)> = REPLAYED
         .par_iter()
         .flat_map(|&stream| (0..parts).into_par_iter().map(move |part| (stream, part)))
         .map(|(stream, part)| run_part(stream, bytes(stream), part))
         .collect();
-    let [depth, color, tri, tex, gbuffer, visibility, triangle_buffer] = std::array::from_fn(|s| {
+    let [depth, color, tri, tex, gbuffer, visibility, triangle_buffer, bvh] = std::array::from_fn(|s| {
         results[s * parts as usize..(s + 1) * parts as usize].iter().fold(
             (0, 0, CacheStats::default()),
             |(d, w, mut stats), (pd, pw, ps)| {
@@ -464,6 +471,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         (GBUFFER, &gbuffer),
         (VISIBILITY, &visibility),
         (TRIANGLE_BUFFER, &triangle_buffer),
+        (BVH, &bvh),
     ] {
         if used(&replayed.2) {
             traffic.add_bytes(class, (replayed.0 + replayed.1) * LINE_BYTES);
@@ -477,6 +485,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         gbuffer: used(&gbuffer.2).then_some(gbuffer.2),
         visibility: used(&visibility.2).then_some(visibility.2),
         triangle_buffer: used(&triangle_buffer.2).then_some(triangle_buffer.2),
+        bvh: used(&bvh.2).then_some(bvh.2),
     };
     Replayed {
         traffic,
@@ -518,6 +527,7 @@ mod tests {
             gbuffer: 4096,
             visibility: 4096,
             triangle_buffer: 4096,
+            bvh: 4096,
             memo_entries: 0,
         };
         // Depth line 7 written, evicted by 8, read again: one writeback, one real fill.
@@ -565,6 +575,7 @@ mod tests {
             gbuffer: 4096,
             visibility: 4096,
             triangle_buffer: 4096,
+            bvh: 4096,
             memo_entries: 4,
         };
         let replayed = simulate(sizes, &[(&l, 0)]);
@@ -609,6 +620,7 @@ mod tests {
             gbuffer: 4096,
             visibility: 4096,
             triangle_buffer: 4096,
+            bvh: 4096,
             memo_entries: 64,
         };
         let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();

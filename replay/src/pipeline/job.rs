@@ -80,6 +80,8 @@ impl JobContext<'_> {
             height: self.grid.height,
             geometry: self.geometry,
             env: self.env,
+            setups: self.setups[view as usize],
+            layout: self.layout,
         }
     }
 }
@@ -325,9 +327,7 @@ fn shade_tile(
     let tile_ctx = TileContext {
         view_ctx: ctx.view(buffer.view),
         tile,
-        setups: ctx.setups[v],
         offsets: ctx.offsets,
-        layout: ctx.layout,
     };
     out.account(v, log, |acc| scheme_job.shade_tile(&tile_ctx, buffer, acc));
 }

@@ -17,8 +17,8 @@ mod view_pass;
 
 use rayon::prelude::*;
 use shadetrace_formats::results::{
-    CacheReport, DaisStats, ListStats, RasterStats, ShadingCacheStats, ShadingCost, ShadowPassStats, Traffic,
-    VertexStats,
+    CacheReport, DaisStats, ListStats, RasterStats, ReprojectionStats, ShadingCacheStats, ShadingCost, ShadowPassStats,
+    Traffic, VertexStats,
 };
 use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
 use std::sync::{Arc, Mutex};
@@ -112,6 +112,8 @@ pub struct FrameOutput {
     pub visibility_bytes: Option<u64>,
     /// Deferred attribute interpolation's buffers and memoization cache.
     pub dais: Option<DaisStats>,
+    /// The reprojected view's grid, holes and rays.
+    pub reprojection: Option<ReprojectionStats>,
     /// Wall time of each stage of this frame.
     pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
@@ -169,7 +171,7 @@ pub fn run_frame(
     // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
     let declared = scheme.view_pass();
     let views: [ViewSetup; 2] = Eye::BOTH.map(|eye| {
-        if declared.is_some_and(|p| p.to != p.from && p.to as usize == eye as usize) {
+        if declared.is_some_and(|p| p.to != p.from && !p.draw_to && p.to as usize == eye as usize) {
             return ViewSetup {
                 triangles: Vec::new(),
                 stats: VertexStats::default(),
@@ -235,6 +237,7 @@ pub fn run_frame(
             .map(|&t| layout.cache_bytes(t, opts.tile, opts.framebuffer_cache_tiles))
             .sum(),
         triangle_buffer: opts.triangle_cache_kb as u64 * 1024,
+        bvh: opts.bvh_cache_kb as u64 * 1024,
         memo_entries: opts.memo_entries,
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
@@ -273,7 +276,8 @@ pub fn run_frame(
     let mut views = [left, right];
     clock.lap("assemble");
     let mut counters = Counters::new();
-    for (name, n) in outputs.iter().flat_map(|out| &out.counters) {
+    let pass_outputs = made.iter().flat_map(|(_, made)| &made.outputs);
+    for (name, n) in outputs.iter().chain(pass_outputs).flat_map(|out| &out.counters) {
         *counters.entry(name).or_default() += n;
     }
     let finished = FinishedFrame {
@@ -284,7 +288,7 @@ pub fn run_frame(
         memo_entries: opts.memo_entries,
     };
     let [l, r] = &mut views;
-    let dais = scheme.finish_frame(&finished, [&mut l.cost, &mut r.cost], &mut traffic);
+    let reported = scheme.finish_frame(&finished, [&mut l.cost, &mut r.cost], &mut traffic);
     FrameOutput {
         views,
         traffic,
@@ -293,7 +297,8 @@ pub fn run_frame(
             let targets = scheme.visibility_targets();
             targets.iter().map(|&t| 2 * layout.bytes(t)).sum()
         }),
-        dais,
+        dais: reported.dais,
+        reprojection: reported.reprojection,
         caches,
         lists: schedule.lists.stats,
         shadow_pass: shadow.map(|s| s.stats),

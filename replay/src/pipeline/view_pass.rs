@@ -72,6 +72,14 @@ pub fn run(
     );
     let mut to = if pass.to == pass.from {
         from.clone()
+    } else if pass.draw_to {
+        assemble_view(
+            pass.to,
+            width,
+            height,
+            samples,
+            jobs.iter().flat_map(|j| j.buffers.iter()),
+        )
     } else {
         SampleBuffer::new(pass.to, from.rect, samples)
     };
@@ -79,7 +87,7 @@ pub fn run(
     let mut first = JobOutput::new(simd_width);
     let mut log = crate::memory::AccessLog::new();
     let v = pass.to as usize;
-    first.account(v, &mut log, |acc| {
+    let shared = first.account(v, &mut log, |acc| {
         scheme
             .begin_job(lights, simd_width)
             .derive_view(&ctx, &from, &mut to, &mut work, acc)
@@ -94,7 +102,7 @@ pub fn run(
             out.account(v, &mut log, |acc| {
                 scheme
                     .begin_job(lights, simd_width)
-                    .shade_pixels(&ctx, &to, pixels, &mut colors, acc)
+                    .shade_pixels(&ctx, &to, pixels, shared.as_ref(), &mut colors, acc)
             });
             out.log = log;
             (out, colors)

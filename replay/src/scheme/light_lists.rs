@@ -105,8 +105,8 @@ pub fn ndc_depth(d: f32, (n, f): (f32, f32)) -> f32 {
     f * (d - n) / ((f - n) * d)
 }
 
-/// The view-space distance of NDC depth `z`.
-fn view_distance(z: f32, (n, f): (f32, f32)) -> f32 {
+/// The view-space distance of NDC depth `z` between near `n` (0) and far `f` (1).
+pub fn view_distance(z: f32, (n, f): (f32, f32)) -> f32 {
     n * f / (f - z * (f - n))
 }
 

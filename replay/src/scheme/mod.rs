@@ -9,15 +9,17 @@ mod light_lists;
 pub mod multirate;
 mod per_pixel;
 pub mod registry;
+mod reprojection;
 pub mod shading_cache;
 
 pub use dais::{Dais, Variant};
 pub use deferred::{Deferred, Lists, Target};
 pub use multirate::{Multirate, MultirateConfig};
 pub use per_pixel::PerPixel;
+pub use reprojection::{HoleFill, Reprojection};
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use shadetrace_formats::results::{DaisStats, ShadingCacheStats, ShadingCost, Traffic};
+use shadetrace_formats::results::{DaisStats, ReprojectionStats, ShadingCacheStats, ShadingCost, Traffic};
 
 use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
@@ -49,6 +51,11 @@ pub struct ViewContext<'a> {
     pub height: u32,
     pub geometry: &'a FrameGeometry,
     pub env: &'a ShaderEnv<'a>,
+    /// The view's setup triangles, indexed by its visibility ids (empty for a view the
+    /// geometry pass did not draw).
+    pub setups: &'a [SetupTriangle],
+    /// Where the render targets' lines are.
+    pub layout: FramebufferLayout,
 }
 
 /// What a scheme may read while shading one unit: its view and its triangle.
@@ -136,7 +143,13 @@ pub enum Passes {
 pub struct ViewPass {
     pub from: u8,
     pub to: u8,
+    /// View `to` is drawn by the geometry pass all the same (its visibility is the pass's
+    /// starting point): a pass that re-rasterizes where the other view leaves holes.
+    pub draw_to: bool,
 }
+
+/// What a view pass hands every chunk of its work list (built once per frame, e.g. a BVH).
+pub type WorkListState = std::sync::Arc<dyn std::any::Any + Send + Sync>;
 
 /// A shading scheme; `begin_job` makes the per-job state (caches live there, so a cache sees
 /// exactly the commands of one job: a tile under `immediate`, `sort-middle` and `multiview`,
@@ -148,7 +161,8 @@ pub trait ShadingScheme: Sync {
     }
     /// A pass over whole views after the geometry pass ([`SchemeJob::derive_view`], then
     /// [`SchemeJob::shade_pixels`] over its work list): view-to-view when `to != from` (view
-    /// `to` is then not drawn), a per-view screen pass over a drawn view when they are equal.
+    /// `to` is then not drawn, unless `draw_to`), a per-view screen pass over a drawn view when
+    /// they are equal.
     fn view_pass(&self) -> Option<ViewPass> {
         None
     }
@@ -176,9 +190,16 @@ pub trait ShadingScheme: Sync {
         _frame: &FinishedFrame,
         _costs: [&mut ShadingCost; 2],
         _traffic: &mut Traffic,
-    ) -> Option<DaisStats> {
-        None
+    ) -> SchemeStats {
+        SchemeStats::default()
     }
+}
+
+/// What a scheme reports about its frame beside the common counters.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SchemeStats {
+    pub dais: Option<DaisStats>,
+    pub reprojection: Option<ReprojectionStats>,
 }
 
 /// What [`ShadingScheme::finish_frame`] reads.
@@ -209,9 +230,10 @@ pub trait SchemeJob {
     /// pass reads `tile`'s depth and ids and writes its colour.
     fn shade_tile(&mut self, _ctx: &TileContext, _tile: &mut SampleBuffer, _acc: &mut Accounting) {}
 
-    /// A view pass: writes view `to` (`ctx.view`; it starts cleared, or as a copy of `from`
-    /// when they are the same view) from the finished view `from`, and lists the pixels
-    /// (`y * width + x`) it leaves for [`SchemeJob::shade_pixels`].
+    /// A view pass: writes view `to` (`ctx.view`; it starts cleared, as a copy of `from`
+    /// when they are the same view, or as the geometry pass drew it with `draw_to`) from the
+    /// finished view `from`, lists the pixels (`y * width + x`) it leaves for
+    /// [`SchemeJob::shade_pixels`] and returns what their chunks share.
     fn derive_view(
         &mut self,
         _ctx: &ViewContext,
@@ -219,16 +241,19 @@ pub trait SchemeJob {
         _to: &mut SampleBuffer,
         _work: &mut Vec<u32>,
         _acc: &mut Accounting,
-    ) {
+    ) -> Option<WorkListState> {
+        None
     }
 
     /// A chunk of a work list: one colour per pixel of `pixels` into `colors` (written to
-    /// every sample of the pixel). Chunks run in parallel, each with its own scheme job.
+    /// every sample of the pixel). Chunks run in parallel, each with its own scheme job;
+    /// `shared` is what [`SchemeJob::derive_view`] returned.
     fn shade_pixels(
         &mut self,
         _ctx: &ViewContext,
         _view: &SampleBuffer,
         _pixels: &[u32],
+        _shared: Option<&WorkListState>,
         _colors: &mut Vec<Vec4>,
         _acc: &mut Accounting,
     ) {
@@ -253,17 +278,14 @@ pub struct TileContext<'a> {
     pub view_ctx: ViewContext<'a>,
     /// The tile's index in its view's grid.
     pub tile: u32,
-    /// The view's setup triangles, indexed by the tile's visibility ids.
-    pub setups: &'a [SetupTriangle],
     /// Sample offsets of the pixel (MSAA pattern).
     pub offsets: &'a [[i64; 2]],
-    pub layout: FramebufferLayout,
 }
 
 impl<'a> TileContext<'a> {
     /// The unit context of setup triangle `tri` of this view, to interpolate its attributes.
     pub fn unit(&self, tri: u32) -> UnitContext<'a> {
-        let setup = &self.setups[tri as usize];
+        let setup = &self.view_ctx.setups[tri as usize];
         UnitContext {
             view_ctx: self.view_ctx,
             setup,

@@ -5,7 +5,7 @@
 use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{Dais, Deferred, Lists, PerPixel, ShadingScheme, Target, Variant};
+use super::{Dais, Deferred, HoleFill, Lists, PerPixel, Reprojection, ShadingScheme, Target, Variant};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 12] = [
+pub const SCHEMES: [SchemeEntry; 14] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -166,7 +166,33 @@ pub const SCHEMES: [SchemeEntry; 12] = [
         },
         supports: opaque_only,
     },
+    SchemeEntry {
+        name: "repro-rt",
+        models: "Wißmann et al. 2020 Repro RT: adaptive grid warp of the left view, holes ray traced through a BVH",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, o| reprojection(HoleFill::RayTrace, o),
+        supports: opaque_only,
+    },
+    SchemeEntry {
+        name: "repro-reraster",
+        models: "Wißmann et al. 2020 Repro ReRaster: adaptive grid warp, the right view drawn again, holes shaded",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, o| reprojection(HoleFill::ReRaster, o),
+        supports: opaque_only,
+    },
 ];
+
+fn reprojection(fill: HoleFill, o: &ReplayOptions) -> Box<dyn ShadingScheme> {
+    Box::new(Reprojection {
+        fill,
+        cell: o.grid_cell,
+        threshold_arcmin: o.parallax_threshold,
+    })
+}
 
 /// Deferred shading lights opaque surfaces only; blended and alpha-tested ones would need
 /// the forward pass after lighting that real renderers add (not modelled).

@@ -33,7 +33,8 @@ use shadetrace_formats::results::{DaisStats, ShadingCost, StageCost, Traffic};
 
 use super::deferred::VISIBILITY;
 use super::{
-    Accounting, FinishedFrame, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads,
+    Accounting, FinishedFrame, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, TileContext, UnitContext,
+    VisibleQuads,
 };
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
@@ -114,12 +115,7 @@ impl ShadingScheme for Dais {
         })
     }
 
-    fn finish_frame(
-        &self,
-        frame: &FinishedFrame,
-        costs: [&mut ShadingCost; 2],
-        traffic: &mut Traffic,
-    ) -> Option<DaisStats> {
+    fn finish_frame(&self, frame: &FinishedFrame, costs: [&mut ShadingCost; 2], traffic: &mut Traffic) -> SchemeStats {
         let memo = frame.memo.unwrap_or_default();
         let count = |name: &str| frame.counters.get(name).copied().unwrap_or(0);
         let width = u64::from(frame.simd_width.max(1));
@@ -154,7 +150,7 @@ impl ShadingScheme for Dais {
             .map(|&t| 2 * frame.layout.bytes(t))
             .sum();
         let triangle_buffer_bytes = stored * TRIANGLE_RECORD_BYTES;
-        Some(DaisStats {
+        let dais = DaisStats {
             memo_lookups: lookups,
             memo_hits: lookups.saturating_sub(stored),
             memo_misses: stored,
@@ -169,7 +165,11 @@ impl ShadingScheme for Dais {
                 + triangle_buffer_bytes
                 + list_nodes.unwrap_or(0) * LIST_NODE_BYTES
                 + shading_samples.unwrap_or(0) * SHADING_SAMPLE_BYTES,
-        })
+        };
+        SchemeStats {
+            dais: Some(dais),
+            ..SchemeStats::default()
+        }
     }
 }
 
