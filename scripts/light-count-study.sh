@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The light-count study (RTR4 §20.3-20.4): `builtin:light-room?lights=N` for N from 1 to
 # 1024 (a 3D grid of lights whose range shrinks as N grows, so a point stays in range of
-# about as many), one frame, with forward, deferred, tiled and clustered: relative shading
+# about as many), one frame, with forward, forward+, deferred, tiled and clustered: relative shading
 # cost, each stage's issued instructions, light-list traffic and G-buffer size per N.
 # Usage: scripts/light-count-study.sh [OUT] [replay flags, default --res 640x720]
 set -euo pipefail
@@ -16,7 +16,7 @@ mkdir -p "$out"
 for n in 1 4 16 64 256 1024; do
   trace="$out/light-room-$n.strace"
   "$bin" capture "builtin:light-room?lights=$n" -o "$trace" --frames 1 --quiet
-  "$bin" compare "$trace" --presets deferred,tiled,clustered --out "$out/n$n" --images none --quiet "${flags[@]}"
+  "$bin" compare "$trace" --presets forward+,deferred,tiled,clustered --out "$out/n$n" --images none --quiet "${flags[@]}"
 done
 python3 - "$out" <<'PY'
 import csv, json, os, sys

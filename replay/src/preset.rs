@@ -67,7 +67,7 @@ const fn without_small_triangle_path(preset: Preset) -> Preset {
 /// (their shading cost stays flat under tessellation, Fig. 9), which exact per-pixel
 /// shading of small blocks would bypass. He et al.'s own presets keep their paper's
 /// coverage-bbox samples, small-triangle path and immediate pipeline.
-pub const PRESETS: [Preset; 21] = [
+pub const PRESETS: [Preset; 22] = [
     preset(
         "forward",
         "immediate",
@@ -189,6 +189,12 @@ pub const PRESETS: [Preset; 21] = [
         "immediate",
         "clustered",
         "clustered deferred shading (RTR4 20.4): light lists per 64x64 px x 16 depth slices",
+    ),
+    preset(
+        "forward+",
+        "immediate",
+        "forward-plus",
+        "tiled forward (RTR4 20.3): z-prepass, then forward shading with per-16x16-tile light lists",
     ),
     preset(
         "visbuffer",

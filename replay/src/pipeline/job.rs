@@ -141,6 +141,8 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     let mut out = JobOutput::new(ctx.simd_width);
     let mut scratch = Scratch::default();
     let mut log = AccessLog::new();
+    // Tiles whose pre-passed depth the scheme has seen.
+    let mut prepared = std::collections::BTreeSet::new();
     for (index, command) in job.commands.iter().enumerate() {
         log.begin(index);
         match *command {
@@ -150,6 +152,16 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
                     .entry((unit.view, unit.tile))
                     .or_insert_with(|| SampleBuffer::new(unit.view, ctx.grid.rect(unit.tile), ctx.offsets.len()));
                 let scheme_job = scheme_job.as_mut();
+                if ctx.z_prepass && matches!(command, Command::Draw(_)) && prepared.insert((unit.view, unit.tile)) {
+                    let tile_ctx = TileContext {
+                        view_ctx: ctx.view(unit.view),
+                        tile: unit.tile,
+                        offsets: ctx.offsets,
+                    };
+                    out.account(unit.view as usize, &mut log, |acc| {
+                        scheme_job.tile_prepared(&tile_ctx, buffer, acc)
+                    });
+                }
                 geometry_command(ctx, command, unit, buffer, scheme_job, &mut scratch, &mut log, &mut out);
             }
             Command::ShadeTile { view, tile } => {

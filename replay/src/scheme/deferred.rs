@@ -25,16 +25,16 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use glam::{Vec3, Vec4};
-use shadetrace_formats::results::StageCost;
+use glam::{Vec2, Vec3, Vec4};
 
 use super::light_lists::{
-    slice_depths, slice_of, LightCuller, CLUSTER_SLICES, CLUSTER_TILE, LIST_ENTRY_BYTES, LIST_HEADER_BYTES, TILED_TILE,
+    charge_culling, depth_bounds, list_bytes, slice_depths, slice_of, LightCuller, CLUSTER_SLICES, CLUSTER_TILE,
+    LIGHT_LISTS, TILED_TILE,
 };
 use super::{Accounting, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads};
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
-use crate::memory::{RenderTarget, Stream, LINE_BYTES};
+use crate::memory::{AccessLog, RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::VERTEX_BYTES;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
@@ -46,8 +46,6 @@ use crate::texture::srgb_to_linear;
 pub const GBUFFER: &str = "gbuffer";
 /// Cost stage of the visibility buffer's geometry pass.
 pub const VISIBILITY: &str = "visibility";
-/// Cost stage and traffic class of light-list building and storage.
-pub const LIGHT_LISTS: &str = "light_lists";
 
 /// Which lights a pixel's lighting loops over.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -218,12 +216,12 @@ impl SchemeJob for DeferredJob {
                             x1: (x0 + TILED_TILE).min(rect.x1),
                             y1: (y0 + TILED_TILE).min(rect.y1),
                         };
-                        let Some(bounds) = self.depth_bounds(buffer, sub, acc) else {
+                        let Some(bounds) = depth_bounds(buffer, sub, &mut self.packer, &mut self.blocks, acc) else {
                             continue;
                         };
                         let culler = self.culler.as_ref().unwrap_or_else(|| unreachable!("made above"));
                         culler.cull(&view_projection(ctx), (ctx.width, ctx.height), sub, bounds, &mut list);
-                        self.charge_culling(culler.tested(), acc);
+                        charge_culling(culler.tested(), &mut self.packer, &mut self.blocks, acc);
                         (acc.traffic)(LIGHT_LISTS, 2 * list_bytes(list.len()));
                         self.list = list;
                         self.light(ctx, buffer, &gbuffer, sub, acc);
@@ -243,7 +241,7 @@ impl SchemeJob for DeferredJob {
                         for slice in 0..CLUSTER_SLICES {
                             let n = self.cluster(ctx, buffer.view, cx, cy, slice).len();
                             (acc.traffic)(LIGHT_LISTS, list_bytes(n));
-                            self.charge_culling(tested, acc);
+                            charge_culling(tested, &mut self.packer, &mut self.blocks, acc);
                         }
                     }
                 }
@@ -309,22 +307,10 @@ impl DeferredJob {
                             let g = gbuffer[i];
                             (octahedral_decode(g.normal), decode_albedo(g.albedo))
                         }
-                        Target::Visibility => {
-                            // The triangle's vertices, its attributes at the pixel's quad (for
-                            // the texture's derivatives, as forward's quads give them).
-                            self.blocks.take(Block::VisibilityInterpolate);
-                            for v in unit.triangle.vertices {
-                                acc.log
-                                    .touch(Stream::TriangleData, u64::from(v) * VERTEX_BYTES / LINE_BYTES, false);
-                            }
-                            let (qx, qy) = (x & !1, y & !1);
-                            let [a, b, c] =
-                                [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
-                            let albedo = ctx
-                                .env
-                                .albedo(material, own.uv, b - a, c - a, &mut self.blocks, acc.log);
-                            (own.normal, albedo)
-                        }
+                        Target::Visibility => (
+                            own.normal,
+                            refetched_albedo(&unit, own.uv, (x, y), &mut self.blocks, acc.log),
+                        ),
                     };
                     let inputs = LightingInputs {
                         position: own.position,
@@ -363,41 +349,6 @@ impl DeferredJob {
         self.packer.flush(acc.cost.stage_mut(FINE), acc.heat);
     }
 
-    /// The NDC depth bounds of the covered samples of `rect`, charging the reduction (one
-    /// lane per pixel); None when no sample is covered.
-    fn depth_bounds(&mut self, buffer: &SampleBuffer, rect: Rect, acc: &mut Accounting) -> Option<(f32, f32)> {
-        let samples = buffer.samples;
-        let mut bounds: Option<(f32, f32)> = None;
-        let stage = acc.cost.stage_mut(LIGHT_LISTS);
-        self.blocks.clear();
-        self.blocks.take(Block::DepthBounds);
-        for y in rect.y0..rect.y1 {
-            for x in rect.x0..rect.x1 {
-                let first = buffer.index(x, y, 0);
-                for i in first..first + samples {
-                    if buffer.tri[i] != NO_PRIMITIVE {
-                        let z = buffer.depth[i];
-                        bounds = Some(bounds.map_or((z, z), |(a, b)| (a.min(z), b.max(z))));
-                    }
-                }
-                self.packer.lane(&self.blocks, true, u32::MAX, stage, &mut |_, _| {});
-            }
-        }
-        self.packer.flush(stage, &mut |_, _| {});
-        bounds
-    }
-
-    /// One list build's cost: a lane per light tested.
-    fn charge_culling(&mut self, tested: usize, acc: &mut Accounting) {
-        let stage: &mut StageCost = acc.cost.stage_mut(LIGHT_LISTS);
-        self.blocks.clear();
-        self.blocks.take(Block::LightCull);
-        for _ in 0..tested {
-            self.packer.lane(&self.blocks, true, u32::MAX, stage, &mut |_, _| {});
-        }
-        self.packer.flush(stage, &mut |_, _| {});
-    }
-
     /// The list of cluster (`cx`, `cy`, `slice`) of `view`, made on first use.
     fn cluster(&mut self, ctx: &TileContext, view: u8, cx: u32, cy: u32, slice: u32) -> &[u32] {
         let culler = self.culler.get_or_insert_with(|| LightCuller::new(ctx.env.lights));
@@ -421,14 +372,28 @@ impl DeferredJob {
     }
 }
 
+/// The visibility buffer's albedo at pixel `(x, y)` of `unit`'s triangle, whose uv there is
+/// `uv`: the triangle's three vertices fetched again, its uv at the pixel's quad (for the
+/// texture's derivatives, as forward's quads give them), the texture sampled.
+pub(super) fn refetched_albedo(
+    unit: &UnitContext,
+    uv: Vec2,
+    (x, y): (u32, u32),
+    blocks: &mut BlockSet,
+    log: &mut AccessLog,
+) -> Vec4 {
+    blocks.take(Block::VisibilityInterpolate);
+    for v in unit.triangle.vertices {
+        log.touch(Stream::TriangleData, u64::from(v) * VERTEX_BYTES / LINE_BYTES, false);
+    }
+    let (qx, qy) = (x & !1, y & !1);
+    let [a, b, c] = [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
+    unit.env.albedo(unit.triangle.material, uv, b - a, c - a, blocks, log)
+}
+
 /// The world-to-clip matrix of the tile's view.
 fn view_projection(ctx: &TileContext) -> glam::Mat4 {
     ctx.view_projections[ctx.view as usize]
-}
-
-/// Bytes of a light list of `entries` lights.
-fn list_bytes(entries: usize) -> u64 {
-    LIST_HEADER_BYTES + LIST_ENTRY_BYTES * entries as u64
 }
 
 /// Albedo as the G-buffer stores it: sRGB-encoded colour, linear alpha, 8 bits each.

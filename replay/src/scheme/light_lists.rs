@@ -8,6 +8,10 @@
 use glam::{Mat4, Vec3, Vec4};
 use shadetrace_formats::LightKind;
 
+use super::Accounting;
+use crate::cost::{BlockSet, SimdPacker};
+use crate::cost_table::Block;
+use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
 use crate::shader::ShadingLight;
 
@@ -17,6 +21,8 @@ pub const TILED_TILE: u32 = 16;
 /// slices between the near and far planes (Persson's 64x64 x 16 in Just Cause 3, RTR4 §20.4).
 pub const CLUSTER_TILE: u32 = 64;
 pub const CLUSTER_SLICES: u32 = 16;
+/// Cost stage and traffic class of light-list building and storage.
+pub const LIGHT_LISTS: &str = "light_lists";
 /// Bytes of a light list: offset and count, then one 32-bit light index per entry.
 pub const LIST_HEADER_BYTES: u64 = 8;
 pub const LIST_ENTRY_BYTES: u64 = 4;
@@ -123,6 +129,53 @@ pub fn slice_depths(k: u32, range: (f32, f32)) -> (f32, f32) {
     let (n, f) = range;
     let at = |k: u32| n * libm::powf(f / n, k as f32 / CLUSTER_SLICES as f32);
     (ndc_depth(at(k), range), ndc_depth(at(k + 1), range))
+}
+
+/// Bytes of a light list of `entries` lights.
+pub fn list_bytes(entries: usize) -> u64 {
+    LIST_HEADER_BYTES + LIST_ENTRY_BYTES * entries as u64
+}
+
+/// The NDC depth bounds of the covered samples of `rect` inside `buffer`, charging the
+/// reduction (a `DepthBounds` lane per pixel) to the `light_lists` stage; None when no
+/// sample is covered.
+pub fn depth_bounds(
+    buffer: &SampleBuffer,
+    rect: Rect,
+    packer: &mut SimdPacker,
+    blocks: &mut BlockSet,
+    acc: &mut Accounting,
+) -> Option<(f32, f32)> {
+    let samples = buffer.samples;
+    let mut bounds: Option<(f32, f32)> = None;
+    let stage = acc.cost.stage_mut(LIGHT_LISTS);
+    blocks.clear();
+    blocks.take(Block::DepthBounds);
+    for y in rect.y0..rect.y1 {
+        for x in rect.x0..rect.x1 {
+            let first = buffer.index(x, y, 0);
+            for i in first..first + samples {
+                if buffer.tri[i] != NO_PRIMITIVE {
+                    let z = buffer.depth[i];
+                    bounds = Some(bounds.map_or((z, z), |(a, b)| (a.min(z), b.max(z))));
+                }
+            }
+            packer.lane(blocks, true, u32::MAX, stage, &mut |_, _| {});
+        }
+    }
+    packer.flush(stage, &mut |_, _| {});
+    bounds
+}
+
+/// One list build's cost: a `LightCull` lane per light tested, in the `light_lists` stage.
+pub fn charge_culling(tested: usize, packer: &mut SimdPacker, blocks: &mut BlockSet, acc: &mut Accounting) {
+    let stage = acc.cost.stage_mut(LIGHT_LISTS);
+    blocks.clear();
+    blocks.take(Block::LightCull);
+    for _ in 0..tested {
+        packer.lane(blocks, true, u32::MAX, stage, &mut |_, _| {});
+    }
+    packer.flush(stage, &mut |_, _| {});
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ pub mod shading_cache;
 pub use dais::{Dais, Variant};
 pub use deferred::{Deferred, Lists, Target};
 pub use multirate::{Multirate, MultirateConfig};
-pub use per_pixel::PerPixel;
+pub use per_pixel::{ForwardPlus, PerPixel};
 pub use reprojection::{HoleFill, Reprojection};
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
@@ -225,6 +225,10 @@ pub trait SchemeJob {
     /// A `Visibility` unit's quads that passed the depth test (under
     /// [`Passes::ShadeAfterVisibility`]): what a G-buffer pass writes.
     fn visible_quads(&mut self, _ctx: &UnitContext, _visible: &VisibleQuads, _acc: &mut Accounting) {}
+
+    /// After a depth pre-pass, before the tile's first draw: the tile's depth is final (a
+    /// forward pass may cull lights against it).
+    fn tile_prepared(&mut self, _ctx: &TileContext, _tile: &SampleBuffer, _acc: &mut Accounting) {}
 
     /// A tile's visibility is final (every geometry command of the tile has run): a screen
     /// pass reads `tile`'s depth and ids and writes its colour.

@@ -5,7 +5,7 @@
 use shadetrace_formats::{AlphaMode, Scene};
 
 use super::multirate::{self, CacheSpace};
-use super::{Dais, Deferred, HoleFill, Lists, PerPixel, Reprojection, ShadingScheme, Target, Variant};
+use super::{Dais, Deferred, ForwardPlus, HoleFill, Lists, PerPixel, Reprojection, ShadingScheme, Target, Variant};
 use crate::options::ReplayOptions;
 use crate::preset::Preset;
 
@@ -28,7 +28,7 @@ fn any_scene(_: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-pub const SCHEMES: [SchemeEntry; 14] = [
+pub const SCHEMES: [SchemeEntry; 15] = [
     SchemeEntry {
         name: "per-pixel",
         models: "every lane of every quad runs the whole shader (the reference)",
@@ -36,6 +36,16 @@ pub const SCHEMES: [SchemeEntry; 14] = [
         reports_cache: false,
         has_thresholds: false,
         build: |_, _| Box::new(PerPixel),
+        supports: any_scene,
+    },
+    SchemeEntry {
+        name: "forward-plus",
+        models:
+            "tiled forward (RTR4 20.3): z-prepass, light lists per 16x16 tile from its depth bounds, forward shading",
+        reports_refinement: false,
+        reports_cache: false,
+        has_thresholds: false,
+        build: |_, _| Box::new(ForwardPlus),
         supports: any_scene,
     },
     SchemeEntry {

@@ -35,7 +35,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{ReprojectionStats, ShadingCost, StageCost, Traffic, VertexStats};
 
-use super::deferred::VISIBILITY;
+use super::deferred::{refetched_albedo, VISIBILITY};
 use super::{
     Accounting, Deferred, FinishedFrame, Lists, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, Target,
     TileContext, UnitContext, ViewContext, ViewPass, VisibleQuads, WorkListState,
@@ -534,18 +534,9 @@ impl ReprojectionJob {
                 triangle: &ctx.geometry.triangles[setup.prim as usize],
             };
             self.blocks.clear();
-            self.blocks.take(Block::VisibilityInterpolate);
-            for v in unit.triangle.vertices {
-                acc.log
-                    .touch(Stream::TriangleData, u64::from(v) * VERTEX_BYTES / LINE_BYTES, false);
-            }
             let material = unit.triangle.material;
             let own = unit.attributes(x, y);
-            let (qx, qy) = (x & !1, y & !1);
-            let [a, b, c] = [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
-            let albedo = ctx
-                .env
-                .albedo(material, own.uv, b - a, c - a, &mut self.blocks, acc.log);
+            let albedo = refetched_albedo(&unit, own.uv, (x, y), &mut self.blocks, acc.log);
             let inputs = LightingInputs {
                 position: own.position,
                 normal: own.normal,
