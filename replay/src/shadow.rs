@@ -174,9 +174,26 @@ impl ShadowMap {
         let bias = self.texel_depth * (1.5 + 2.0 * slope.min(10.0));
         let blocks_x = self.size.div_ceil(BLOCK);
         let last = self.size as i32 - 1;
-        let xs: [u32; PCF_TAPS] = std::array::from_fn(|i| (tx + i as i32 - PCF_RADIUS).clamp(0, last) as u32);
         let receiver = p.z - bias;
         let mut lit = 0u32;
+        if tx - PCF_RADIUS >= 0 && tx + PCF_RADIUS <= last {
+            // The usual case, the footprint inside the map in x: each row's taps are one run
+            // of texels in one or two blocks (the same accesses, in the same order).
+            let x0 = (tx - PCF_RADIUS) as u32;
+            let (b0, b1) = (x0 / BLOCK, (x0 + PCF_TAPS as u32 - 1) / BLOCK);
+            for dy in -PCF_RADIUS..=PCF_RADIUS {
+                let y = (ty + dy).clamp(0, last) as u32;
+                let row_line = self.base_line + u64::from((y / BLOCK) * blocks_x);
+                log.touch(Stream::Texture, row_line + u64::from(b0), false);
+                if b1 != b0 {
+                    log.touch(Stream::Texture, row_line + u64::from(b1), false);
+                }
+                let taps = &self.depth[(y * self.size + x0) as usize..][..PCF_TAPS];
+                lit += taps.iter().map(|&d| u32::from(receiver <= d)).sum::<u32>();
+            }
+            return lit as f32 / (PCF_TAPS * PCF_TAPS) as f32;
+        }
+        let xs: [u32; PCF_TAPS] = std::array::from_fn(|i| (tx + i as i32 - PCF_RADIUS).clamp(0, last) as u32);
         for dy in -PCF_RADIUS..=PCF_RADIUS {
             let y = (ty + dy).clamp(0, last) as u32;
             let row = &self.depth[(y * self.size) as usize..][..self.size as usize];
