@@ -4,7 +4,8 @@
 # whose pixels are forward's), `repro-rt` and `repro-reraster`: the share of right-view
 # pixels reprojected and ray traced (mean and max over the frames), grid triangles, the
 # cost of both views and of the right view relative to Plain Stereo (the paper's speed-up,
-# in instructions), DRAM traffic relative to it, and the right view's SSIM against forward.
+# in instructions), DRAM traffic and geometry work (triangles through the vertex stage)
+# relative to it, and the right view's SSIM against forward.
 # Then the grid against θΔ on the first trace at the first resolution.
 # Usage: scripts/repro-study.sh OUT TRACE... [-- replay flags, default --frames 0..4]
 set -euo pipefail
@@ -40,13 +41,15 @@ out, first_res, resolutions, traces = sys.argv[1], sys.argv[2], sys.argv[3].spli
 load = lambda *p: json.load(open(os.path.join(out, *p, "results.json")))
 issued = lambda view: sum(s["alu"] + s["tex"] for s in view["cost"].values() if isinstance(s, dict) and "alu" in s)
 print(f"{'trace':<22} {'res':<10} {'preset':<15} {'repro %':>8} {'holes %':>8} {'max %':>6} {'grid tris':>10}"
-      f" {'frame x':>8} {'right x':>8} {'DRAM x':>7} {'SSIM R':>8}")
+      f" {'frame x':>8} {'right x':>8} {'DRAM x':>7} {'geom x':>7} {'SSIM R':>8}")
 for trace in traces:
     name = os.path.basename(trace).removesuffix(".strace")
     for res in resolutions:
         base = load(f"{name}-{res}", "visbuffer")
         cost = lambda r, v=None: sum(issued(f["views"][v]) if v is not None else issued(f["views"][0]) + issued(f["views"][1]) for f in r["frames"])
         dram = lambda r: sum(sum(f["traffic"].values()) for f in r["frames"])
+        # Geometry work: triangles through the vertex stage, both views.
+        geom = lambda r: sum(v["vertex"]["triangles_in"] for f in r["frames"] for v in f["views"])
         for preset in ("repro-rt", "repro-reraster"):
             r = load(f"{name}-{res}", preset)
             px = r["eye_width"] * r["eye_height"]
@@ -57,7 +60,7 @@ for trace in traces:
             ssim = min(f["views"][1]["quality"]["ssim"] or 0 for f in r["frames"])
             print(f"{name:<22} {res:<10} {preset:<15} {repro:>8.2f} {sum(holes) / len(holes):>8.2f} {max(holes):>6.2f} "
                   f"{tris:>10.0f} {cost(base) / cost(r):>7.2f}x {cost(base, 1) / cost(r, 1):>7.2f}x "
-                  f"{dram(base) / dram(r):>6.2f}x {ssim:>8.5f}")
+                  f"{dram(base) / dram(r):>6.2f}x {geom(base) / max(geom(r), 1):>6.2f}x {ssim:>8.5f}")
 print(f"\ngrid against θΔ ({os.path.basename(traces[0])}, {first_res}, repro-rt, mean per frame)")
 print(f"{'θΔ arcmin':>10} {'cells over':>10} {'tessellated':>11} {'grid tris':>10} {'discarded':>9} {'holes %':>8}")
 for t in ("0.25", "0.5", "1", "2", "4"):
