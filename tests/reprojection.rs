@@ -186,3 +186,46 @@ fn reprojection_survives_the_extremes() {
         }
     }
 }
+
+/// `frames.csv` (and so a sweep's store) carries the reprojection counters per frame, as
+/// `repro_FIELD` columns, empty for presets that do not report them.
+#[test]
+fn frames_csv_carries_the_reprojection_counters() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    let out_s = out.display().to_string();
+    shadetrace_ok(
+        &[
+            "compare",
+            &trace("arena"),
+            "--presets",
+            "repro-rt",
+            "--res",
+            "64x72",
+            "--frames",
+            "0",
+            "--images",
+            "none",
+            "--out",
+            &out_s,
+            "--quiet",
+        ],
+        None,
+    );
+    let mut csv = csv::Reader::from_path(out.join("frames.csv")).unwrap();
+    let header = csv.headers().unwrap().clone();
+    let column = header
+        .iter()
+        .position(|h| h == "repro_hole_pixels")
+        .expect("a hole column");
+    let preset = header.iter().position(|h| h == "preset").unwrap();
+    let results = common::results(&out.join("repro-rt"));
+    let holes = results["frames"][0]["reprojection"]["hole_pixels"].to_string();
+    for row in csv.records() {
+        let row = row.unwrap();
+        match &row[preset] {
+            "repro-rt" => assert_eq!(&row[column], holes),
+            _ => assert_eq!(&row[column], "", "the reference reports no holes"),
+        }
+    }
+}

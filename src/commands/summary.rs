@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use shadetrace_formats::results::{stage_names, traffic_names, ListStats, RunResult};
+use shadetrace_formats::results::{stage_names, traffic_names, FrameResult, ListStats, RunResult};
 
 use shadetrace_formats::atomic_file::write_atomically;
 
@@ -12,6 +12,8 @@ use shadetrace_formats::atomic_file::write_atomically;
 struct Columns {
     stages: Vec<String>,
     classes: Vec<String>,
+    /// Per-frame counters of particular back-ends ([`frame_extras`]), for `frames.csv`.
+    extras: Vec<String>,
 }
 
 impl Columns {
@@ -19,6 +21,7 @@ impl Columns {
         Columns {
             stages: stage_names(runs.iter().map(|r| &r.total.cost)),
             classes: traffic_names(runs.iter().map(|r| &r.total.traffic)),
+            extras: extra_names(runs.iter().copied()),
         }
     }
 
@@ -100,9 +103,42 @@ impl Cell {
     }
 }
 
-/// The columns of `frames.csv` for runs that report `stages` and traffic `classes` (README,
-/// Output files).
-pub fn frame_header(stages: &[String], classes: &[String]) -> Vec<String> {
+/// The counters a back-end adds to a frame (`dais`, `reprojection`), as `dais_FIELD` and
+/// `repro_FIELD` columns.
+fn frame_extras(frame: &FrameResult) -> Vec<(String, u64)> {
+    let mut out = Vec::new();
+    let mut add = |prefix: &str, value: serde_json::Result<serde_json::Value>| {
+        if let Ok(serde_json::Value::Object(fields)) = value {
+            for (field, v) in fields {
+                if let Some(n) = v.as_u64() {
+                    out.push((format!("{prefix}_{field}"), n));
+                }
+            }
+        }
+    };
+    if let Some(d) = &frame.dais {
+        add("dais", serde_json::to_value(d));
+    }
+    if let Some(r) = &frame.reprojection {
+        add("repro", serde_json::to_value(r));
+    }
+    out
+}
+
+/// The extra columns any frame of `runs` reports, sorted.
+pub fn extra_names<'a>(runs: impl IntoIterator<Item = &'a RunResult>) -> Vec<String> {
+    let mut names = std::collections::BTreeSet::new();
+    for r in runs {
+        for frame in &r.frames {
+            names.extend(frame_extras(frame).into_iter().map(|(name, _)| name));
+        }
+    }
+    names.into_iter().collect()
+}
+
+/// The columns of `frames.csv` for runs that report `stages`, traffic `classes` and back-end
+/// counters `extras` (README, Output files).
+pub fn frame_header(stages: &[String], classes: &[String], extras: &[String]) -> Vec<String> {
     let mut header: Vec<String> = ["preset", "scheduler", "scheme", "frame", "eye", "issued"]
         .map(String::from)
         .to_vec();
@@ -121,13 +157,15 @@ pub fn frame_header(stages: &[String], classes: &[String]) -> Vec<String> {
         .map(String::from),
     );
     header.extend(classes.iter().map(|c| format!("frame_{c}_bytes")));
+    header.extend(extras.iter().cloned());
     header
 }
 
 /// One row per frame and view of `r`, in [`frame_header`]'s columns.
-pub fn frame_rows(r: &RunResult, stages: &[String], classes: &[String]) -> Vec<Vec<Cell>> {
+pub fn frame_rows(r: &RunResult, stages: &[String], classes: &[String], extras: &[String]) -> Vec<Vec<Cell>> {
     let mut rows = Vec::new();
     for frame in &r.frames {
+        let reported = frame_extras(frame);
         for view in &frame.views {
             let q = view.quality;
             let mut row = vec![
@@ -150,6 +188,12 @@ pub fn frame_rows(r: &RunResult, stages: &[String], classes: &[String]) -> Vec<V
                 Cell::int(view.raster.pixels_covered),
             ]);
             row.extend(classes.iter().map(|c| Cell::int(frame.traffic.bytes(c))));
+            row.extend(extras.iter().map(|name| {
+                reported
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .map_or(Cell::Empty, |&(_, v)| Cell::int(v))
+            }));
             rows.push(row);
         }
     }
@@ -164,10 +208,10 @@ pub fn write_frames_csv(path: &Path, runs: &[&RunResult]) -> Result<(), String> 
     let columns = Columns::of(runs);
     write_atomically(path, |w| {
         let mut csv = csv::Writer::from_writer(w);
-        csv.write_record(frame_header(&columns.stages, &columns.classes))
+        csv.write_record(frame_header(&columns.stages, &columns.classes, &columns.extras))
             .map_err(fail)?;
         for r in runs {
-            for row in frame_rows(r, &columns.stages, &columns.classes) {
+            for row in frame_rows(r, &columns.stages, &columns.classes, &columns.extras) {
                 csv.write_record(row.iter().map(Cell::csv)).map_err(fail)?;
             }
         }

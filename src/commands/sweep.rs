@@ -14,7 +14,7 @@ use shadetrace_formats::atomic_file::write_bytes_atomically;
 use shadetrace_formats::results::{stage_names, traffic_names};
 use shadetrace_replay::{load_trace, replay_all, LoadedTrace, Preset, ReplayOptions};
 
-use super::summary::{frame_header, frame_rows};
+use super::summary::{extra_names, frame_header, frame_rows};
 use crate::progress;
 use crate::sweep::shard::{self, Shard};
 use crate::sweep::spec::{self, Point};
@@ -141,6 +141,7 @@ pub fn run(args: Args) -> Result<(), String> {
                 let r = &out.result;
                 let stages = stage_names([&r.total.cost]);
                 let classes = traffic_names([&r.total.traffic]);
+                let extras = extra_names([r]);
                 JobRows {
                     key: group.jobs[i].1.clone(),
                     index: group.first_job + i as u64,
@@ -151,8 +152,8 @@ pub fn run(args: Args) -> Result<(), String> {
                     options_hash: point.options.hash(),
                     frames: frames_text(&point.options),
                     wall_s,
-                    header: frame_header(&stages, &classes),
-                    rows: frame_rows(r, &stages, &classes),
+                    header: frame_header(&stages, &classes, &extras),
+                    rows: frame_rows(r, &stages, &classes, &extras),
                 }
             })
             .collect();
