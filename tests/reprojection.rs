@@ -229,3 +229,25 @@ fn frames_csv_carries_the_reprojection_counters() {
         }
     }
 }
+
+/// `--specular-error` measures what carrying the left eye's shading costs: nothing when the
+/// eyes coincide, something on the room's glossy surfaces when they are apart; without the
+/// flag nothing is measured or reported.
+#[test]
+fn the_specular_only_error_is_zero_only_when_the_eyes_coincide() {
+    let dir = tempfile::tempdir().unwrap();
+    for (ipd, nonzero) in [("0", false), ("0.5", true)] {
+        let t = capture(dir.path(), "builtin:light-room", ipd);
+        let (r, _) = run(&t, "repro-rt", &["--specular-error"], dir.path());
+        let e = &r["frames"][0]["reprojection"]["specular_error"];
+        let (sum, max, pixels) = (
+            e["sum"].as_u64().unwrap(),
+            e["max"].as_u64().unwrap(),
+            e["pixels"].as_u64().unwrap(),
+        );
+        assert_eq!(pixels > 0, nonzero, "IPD {ipd}: {e}");
+        assert!(sum >= pixels && max <= 255 && pixels <= stats(&r, "reprojected_pixels"));
+        let (plain, _) = run(&t, "repro-rt", &[], dir.path());
+        assert!(plain["frames"][0]["reprojection"].get("specular_error").is_none());
+    }
+}

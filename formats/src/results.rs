@@ -116,6 +116,20 @@ pub struct ReprojectionStats {
     /// The frame's BVH (`repro-rt`): nodes and bytes (nodes and triangles).
     pub bvh_nodes: u64,
     pub bvh_bytes: u64,
+    /// With `--specular-error`: over the reprojected pixels, the largest channel difference
+    /// (8-bit sRGB) between their surface shaded from the left eye (what is carried) and from
+    /// the right eye: its sum (the mean is `/ reprojected_pixels`), its maximum and the pixels
+    /// where it is not 0. The view-dependent error alone, without resampling or holes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular_error: Option<SpecularError>,
+}
+
+/// The view-dependent error of reprojection (see [`ReprojectionStats::specular_error`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SpecularError {
+    pub sum: u64,
+    pub max: u64,
+    pub pixels: u64,
 }
 
 /// Deferred attribute interpolation (Schied and Dachsbacher 2015), both views: the

@@ -75,6 +75,12 @@ pub struct ReplayOptions {
     #[arg(long, default_value_t = DEFAULT_OPTIONS.bvh_cache_kb)]
     #[serde(skip_serializing_if = "default_bvh_cache")]
     pub bvh_cache_kb: u32,
+    /// Reprojection: measure the specular-only error, the right view's error from carrying
+    /// the left eye's shading (each reprojected pixel's surface shaded from both eyes; costs
+    /// simulator time, not modelled instructions).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub specular_error: bool,
     #[command(flatten)]
     pub multirate: MultirateOptions,
 }
@@ -96,6 +102,7 @@ pub const DEFAULT_OPTIONS: ReplayOptions = ReplayOptions {
     grid_cell: 16,
     parallax_threshold: 1.0,
     bvh_cache_kb: 32,
+    specular_error: false,
     multirate: crate::scheme::multirate::config::DEFAULT_MULTIRATE,
 };
 

@@ -110,8 +110,13 @@ fn frame_extras(frame: &FrameResult) -> Vec<(String, u64)> {
     let mut add = |prefix: &str, value: serde_json::Result<serde_json::Value>| {
         if let Ok(serde_json::Value::Object(fields)) = value {
             for (field, v) in fields {
-                if let Some(n) = v.as_u64() {
-                    out.push((format!("{prefix}_{field}"), n));
+                match v {
+                    serde_json::Value::Object(inner) => out.extend(
+                        inner
+                            .iter()
+                            .filter_map(|(sub, v)| Some((format!("{prefix}_{field}_{sub}"), v.as_u64()?))),
+                    ),
+                    v => out.extend(v.as_u64().map(|n| (format!("{prefix}_{field}"), n))),
                 }
             }
         }

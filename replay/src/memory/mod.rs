@@ -168,6 +168,16 @@ impl AccessLog {
         self.entries.iter().map(Vec::len).sum()
     }
 
+    /// Forgets every access, keeping the allocation (a log kept only to satisfy code that
+    /// logs, e.g. a measurement that is not replayed).
+    pub fn clear(&mut self) {
+        self.entries.iter_mut().for_each(Vec::clear);
+        *self = AccessLog {
+            entries: std::mem::take(&mut self.entries),
+            ..AccessLog::new()
+        };
+    }
+
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

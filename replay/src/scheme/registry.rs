@@ -201,6 +201,7 @@ fn reprojection(fill: HoleFill, o: &ReplayOptions) -> Box<dyn ShadingScheme> {
         fill,
         cell: o.grid_cell,
         threshold_arcmin: o.parallax_threshold,
+        specular_error: o.specular_error,
     })
 }
 

@@ -33,7 +33,7 @@ mod trace;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
-use shadetrace_formats::results::{ReprojectionStats, ShadingCost, StageCost, Traffic, VertexStats};
+use shadetrace_formats::results::{ReprojectionStats, ShadingCost, SpecularError, StageCost, Traffic, VertexStats};
 
 use super::deferred::{refetched_albedo, VISIBILITY};
 use super::{
@@ -46,6 +46,7 @@ use crate::memory::{AccessLog, RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::{SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE, VERTEX_BYTES};
 use crate::raster::{pixel_center, rasterize, Rect};
 use crate::shader::{compose, LightingInputs};
+use crate::srgb::linear_to_srgb8;
 use crate::vertex_stage::setup_clip_triangle;
 use grid::{GridParams, SourceImage};
 use trace::{primary_ray, RayScene};
@@ -71,6 +72,10 @@ const NODE_VISITS: &str = "repro_node_visits";
 const TRIANGLE_TESTS: &str = "repro_triangle_tests";
 const BVH_NODES: &str = "repro_bvh_nodes";
 const BVH_BYTES: &str = "repro_bvh_bytes";
+/// Of the one job that makes the view (so the "sum" of the maximum is the maximum).
+const SPECULAR_SUM: &str = "repro_specular_sum";
+const SPECULAR_MAX: &str = "repro_specular_max";
+const SPECULAR_PIXELS: &str = "repro_specular_pixels";
 
 /// Warped vertices' NDC depth stays below the far plane, so that the background (cleared
 /// to depth 1) is warped too instead of being clipped away by rounding.
@@ -91,6 +96,8 @@ pub struct Reprojection {
     pub cell: u32,
     /// θΔ in minutes of arc.
     pub threshold_arcmin: f32,
+    /// Measure the specular-only error (`--specular-error`).
+    pub specular_error: bool,
 }
 
 impl ShadingScheme for Reprojection {
@@ -122,6 +129,7 @@ impl ShadingScheme for Reprojection {
             fill: self.fill,
             cell: self.cell,
             threshold: (self.threshold_arcmin / 60.0).to_radians(),
+            specular_error: self.specular_error,
             left: left.begin_job(lights, simd_width),
             simd_width,
             packer: SimdPacker::new(simd_width, lights),
@@ -148,6 +156,11 @@ impl ShadingScheme for Reprojection {
                 triangle_tests: count(TRIANGLE_TESTS),
                 bvh_nodes: count(BVH_NODES),
                 bvh_bytes: count(BVH_BYTES),
+                specular_error: self.specular_error.then(|| SpecularError {
+                    sum: count(SPECULAR_SUM),
+                    max: count(SPECULAR_MAX),
+                    pixels: count(SPECULAR_PIXELS),
+                }),
             }),
             ..SchemeStats::default()
         }
@@ -159,6 +172,7 @@ struct ReprojectionJob {
     cell: u32,
     /// θΔ in radians.
     threshold: f32,
+    specular_error: bool,
     /// The left view's renderer.
     left: Box<dyn SchemeJob>,
     simd_width: u32,
@@ -225,11 +239,21 @@ impl SchemeJob for ReprojectionJob {
             (acc.count)(name, n);
         }
         let warped = self.warp(ctx, &source, &grid, acc);
+        if self.specular_error {
+            let e = specular_error(ctx, &warped);
+            for (name, n) in [
+                (SPECULAR_SUM, e.sum),
+                (SPECULAR_MAX, e.max),
+                (SPECULAR_PIXELS, e.pixels),
+            ] {
+                (acc.count)(name, n);
+            }
+        }
         let samples = to.samples;
         let mut reprojected = 0;
         for (p, pixel) in warped.iter().enumerate() {
             match pixel {
-                Some((colour, prim)) => {
+                Some((colour, prim, _)) => {
                     reprojected += 1;
                     to.color[p * samples..(p + 1) * samples].fill(*colour);
                     if self.fill == HoleFill::RayTrace {
@@ -314,11 +338,11 @@ impl ReprojectionJob {
         source: &SourceImage,
         grid: &grid::Grid,
         acc: &mut Accounting,
-    ) -> Vec<Option<(Vec4, u32)>> {
+    ) -> Vec<Option<(Vec4, u32, Vec2)>> {
         let (width, height) = (ctx.width, ctx.height);
         let pixels = (width * height) as usize;
         let mut depth = vec![f32::INFINITY; pixels];
-        let mut out: Vec<Option<(Vec4, u32)>> = vec![None; pixels];
+        let mut out: Vec<Option<(Vec4, u32, Vec2)>> = vec![None; pixels];
         // The reprojection matrix: the left view's inverse view-projection, then the right's.
         let reproject = ctx.view_projections[1].as_dmat4() * ctx.view_projections[0].as_dmat4().inverse();
         let clip: Vec<Vec4> = grid
@@ -378,7 +402,8 @@ impl ReprojectionJob {
                         depth[p] = z;
                         let b = setup.original_bary(e);
                         let at = sources[0] * b.x + sources[1] * b.y + sources[2] * b.z;
-                        out[p] = Some(bilinear(source, at, ctx, acc.log));
+                        let (colour, prim) = bilinear(source, at, ctx, acc.log);
+                        out[p] = Some((colour, prim, at));
                         acc.log
                             .touch(Stream::Color, ctx.layout.color_line(ctx.view, x, y), true);
                     }
@@ -589,6 +614,54 @@ fn bilinear(source: &SourceImage, at: Vec2, ctx: &ViewContext, log: &mut AccessL
     let near = |f: f32, a: u32, b: u32| if f < 0.5 { a } else { b };
     let prim = source.prim[(near(fy, ya, yb) * w + near(fx, xa, xb)) as usize];
     (colour, prim)
+}
+
+/// The view-dependent error of the carried shading: each reprojected pixel's surface (the
+/// left view's primitive, where the left eye's ray through its source point meets it)
+/// shaded from both eyes with the same albedo, compared in 8-bit sRGB. A measurement: its
+/// instructions and accesses are not counted.
+fn specular_error(ctx: &ViewContext, warped: &[Option<(Vec4, u32, Vec2)>]) -> SpecularError {
+    let mut log = AccessLog::new();
+    let mut blocks = BlockSet::new(ctx.env.lights.len());
+    let g = ctx.geometry;
+    let mut error = SpecularError::default();
+    let surfaces = warped.iter().flatten().filter(|w| w.1 != NO_PRIMITIVE);
+    for (n, &(_, prim, at)) in surfaces.enumerate() {
+        if n % 4096 == 0 {
+            log.clear();
+        }
+        let (origin, dir) = trace::ray_through(ctx.view_projections[0], (ctx.width, ctx.height), at.x, at.y);
+        let triangle = &g.triangles[prim as usize];
+        let [i, j, k] = triangle.vertices.map(|v| v as usize);
+        let Some(hit) = trace::plane_hit([g.positions[i], g.positions[j], g.positions[k]], origin, dir) else {
+            continue;
+        };
+        let w = 1.0 - hit.u - hit.v;
+        let position = g.positions[i] * w + g.positions[j] * hit.u + g.positions[k] * hit.v;
+        let normal = g.normals[i] * w + g.normals[j] * hit.u + g.normals[k] * hit.v;
+        let uv = g.uvs[i] * w + g.uvs[j] * hit.u + g.uvs[k] * hit.v;
+        let material = triangle.material;
+        let albedo = ctx
+            .env
+            .albedo(material, uv, Vec2::ZERO, Vec2::ZERO, &mut blocks, &mut log);
+        let mut colours = [[0u8; 3]; 2];
+        for (colour, eye) in colours.iter_mut().zip(ctx.eyes) {
+            let inputs = LightingInputs {
+                position,
+                normal,
+                eye,
+                material,
+            };
+            let lighting = ctx.env.lighting(&inputs, &mut blocks, &mut log);
+            let c = compose(albedo, lighting, &mut blocks);
+            *colour = [c.x, c.y, c.z].map(linear_to_srgb8);
+        }
+        let d = (0..3).map(|c| colours[0][c].abs_diff(colours[1][c])).max().unwrap_or(0);
+        error.sum += u64::from(d);
+        error.max = error.max.max(u64::from(d));
+        error.pixels += u64::from(d > 0);
+    }
+    error
 }
 
 /// Heat-map id of pixel (x, y) of the pass's view (`u32::MAX` outside it: a helper lane).

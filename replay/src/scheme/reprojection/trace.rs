@@ -144,37 +144,54 @@ impl RayScene {
 
     /// Möller-Trumbore; back faces of single-sided triangles miss.
     fn intersect(&self, prim: u32, origin: Vec3, dir: Vec3) -> Option<(f32, f32, f32)> {
-        let [p0, p1, p2] = self.triangles[prim as usize];
-        let (e1, e2) = (p1 - p0, p2 - p0);
-        let pv = dir.cross(e2);
-        let det = e1.dot(pv);
-        let front = det > 0.0;
-        if det == 0.0 || (!front && self.single_sided[prim as usize]) {
-            return None;
-        }
-        let inv = 1.0 / det;
-        let tv = origin - p0;
-        let u = tv.dot(pv) * inv;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
-        }
-        let qv = tv.cross(e1);
-        let v = dir.dot(qv) * inv;
-        if v < 0.0 || u + v > 1.0 {
-            return None;
-        }
-        let t = e2.dot(qv) * inv;
-        (t >= 0.0).then_some((t, u, v))
+        let hit = plane_hit(self.triangles[prim as usize], origin, dir)?;
+        let inside = (0.0..=1.0).contains(&hit.u) && hit.v >= 0.0 && hit.u + hit.v <= 1.0 && hit.t >= 0.0;
+        (inside && (hit.front || !self.single_sided[prim as usize])).then_some((hit.t, hit.u, hit.v))
     }
+}
+
+/// Where a ray meets a triangle's plane (Möller-Trumbore, inside or not).
+pub struct PlaneHit {
+    pub t: f32,
+    /// Barycentrics of the second and third vertices (extrapolated outside the triangle).
+    pub u: f32,
+    pub v: f32,
+    /// The ray sees the side the vertices wind counter-clockwise on.
+    pub front: bool,
+}
+
+/// The ray's meeting with the plane of `[p0, p1, p2]`; None when parallel to it.
+pub fn plane_hit([p0, p1, p2]: [Vec3; 3], origin: Vec3, dir: Vec3) -> Option<PlaneHit> {
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let pv = dir.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let tv = origin - p0;
+    let qv = tv.cross(e1);
+    Some(PlaneHit {
+        t: e2.dot(qv) * inv,
+        u: tv.dot(pv) * inv,
+        v: dir.dot(qv) * inv,
+        front: det > 0.0,
+    })
 }
 
 /// The primary ray of pixel (`x`, `y`) of a `width` x `height` view: from the near plane
 /// through the pixel centre (origin, unit direction).
-pub fn primary_ray(view_projection: Mat4, (width, height): (u32, u32), x: f32, y: f32) -> (Vec3, Vec3) {
+pub fn primary_ray(view_projection: Mat4, size: (u32, u32), x: f32, y: f32) -> (Vec3, Vec3) {
+    ray_through(view_projection, size, x + 0.5, y + 0.5)
+}
+
+/// The ray from the near plane through pixel-space point (`x`, `y`) (a pixel's centre is
+/// `x + 0.5`).
+pub fn ray_through(view_projection: Mat4, (width, height): (u32, u32), x: f32, y: f32) -> (Vec3, Vec3) {
     let inverse = view_projection.as_dmat4().inverse();
     let (nx, ny) = (
-        2.0 * (f64::from(x) + 0.5) / f64::from(width) - 1.0,
-        1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(height),
+        2.0 * f64::from(x) / f64::from(width) - 1.0,
+        1.0 - 2.0 * f64::from(y) / f64::from(height),
     );
     let point = |z: f64| {
         let p: DVec4 = DMat4::mul_vec4(&inverse, DVec4::new(nx, ny, z, 1.0));
