@@ -132,6 +132,21 @@ const FIXED_BLOCKS: [Block; 42] = [
     Block::BvhBuild,
 ];
 
+/// What `n` lanes of one block issue when packed densely into SIMD groups of `width` (a
+/// compute pass over a buffer: every group full but the last, all lanes useful).
+pub fn dense_lanes(block: Block, n: u64, width: u32) -> StageCost {
+    let c = block.cost();
+    let groups = n.div_ceil(u64::from(width.max(1)));
+    StageCost {
+        groups,
+        alu: groups * u64::from(c.alu),
+        tex: groups * u64::from(c.tex),
+        useful_lane_alu: n * u64::from(c.alu),
+        useful_lane_tex: n * u64::from(c.tex),
+        useful_lanes: n,
+    }
+}
+
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that
 /// are not useful (helper lanes, idle lanes) still widen the union when they take blocks.
 pub struct SimdPacker {

@@ -29,14 +29,14 @@ mod record;
 use std::collections::HashMap;
 
 use glam::{Vec3, Vec4};
-use shadetrace_formats::results::{DaisStats, ShadingCost, StageCost, Traffic};
+use shadetrace_formats::results::{DaisStats, ShadingCost, Traffic};
 
 use super::deferred::VISIBILITY;
 use super::{
     Accounting, FinishedFrame, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, TileContext, UnitContext,
     VisibleQuads,
 };
-use crate::cost::{BlockSet, SimdPacker, FINE};
+use crate::cost::{dense_lanes, BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
 use crate::memory::{
     memo_key, RenderTarget, Stream, MEMO_ENTRY_BYTES, MEMO_LOCK_BYTES, MEMO_WAYS, TRIANGLE_BUFFER,
@@ -118,7 +118,6 @@ impl ShadingScheme for Dais {
     fn finish_frame(&self, frame: &FinishedFrame, costs: [&mut ShadingCost; 2], traffic: &mut Traffic) -> SchemeStats {
         let memo = frame.memo.unwrap_or_default();
         let count = |name: &str| frame.counters.get(name).copied().unwrap_or(0);
-        let width = u64::from(frame.simd_width.max(1));
         for (cost, stores) in costs.into_iter().zip(memo.misses) {
             // Each store is a divergent branch of the fill pass's SIMD group that won the lock.
             let store = Block::TriangleStore.cost();
@@ -126,16 +125,8 @@ impl ShadingScheme for Dais {
             fill.alu += stores * u64::from(store.alu);
             fill.useful_lane_alu += stores * u64::from(store.alu);
             // The derivative pass: one lane per stored triangle, packed densely.
-            let d = Block::TriangleDerivatives.cost();
-            let groups = stores.div_ceil(width);
-            cost.stage_mut(DERIVATIVES).add(&StageCost {
-                groups,
-                alu: groups * u64::from(d.alu),
-                tex: groups * u64::from(d.tex),
-                useful_lane_alu: stores * u64::from(d.alu),
-                useful_lane_tex: stores * u64::from(d.tex),
-                useful_lanes: stores,
-            });
+            cost.stage_mut(DERIVATIVES)
+                .add(&dense_lanes(Block::TriangleDerivatives, stores, frame.simd_width));
         }
         let stored: u64 = memo.misses.iter().sum();
         // The fill pass writes each record, the derivative pass reads and rewrites it.

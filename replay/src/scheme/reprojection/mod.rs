@@ -33,14 +33,14 @@ mod trace;
 use std::sync::Arc;
 
 use glam::{Vec2, Vec3, Vec4};
-use shadetrace_formats::results::{ReprojectionStats, ShadingCost, SpecularError, StageCost, Traffic, VertexStats};
+use shadetrace_formats::results::{ReprojectionStats, ShadingCost, SpecularError, Traffic, VertexStats};
 
 use super::deferred::{refetched_albedo, VISIBILITY};
 use super::{
     Accounting, Deferred, FinishedFrame, Lists, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, Target,
     TileContext, UnitContext, ViewContext, ViewPass, VisibleQuads, WorkListState,
 };
-use crate::cost::{BlockSet, SimdPacker, FINE};
+use crate::cost::{dense_lanes, BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
 use crate::memory::{AccessLog, RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::{SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE, VERTEX_BYTES};
@@ -316,17 +316,7 @@ impl ReprojectionJob {
     /// `n` lanes of `block` in stage `stage`, packed densely (no heat: per-pixel work is
     /// shown by the fragments' and rays' lanes).
     fn lanes(&self, stage: &'static str, block: Block, n: u64, acc: &mut Accounting) {
-        let c = block.cost();
-        let width = u64::from(self.simd_width.max(1));
-        let groups = n.div_ceil(width);
-        acc.cost.stage_mut(stage).add(&StageCost {
-            groups,
-            alu: groups * u64::from(c.alu),
-            tex: groups * u64::from(c.tex),
-            useful_lane_alu: n * u64::from(c.alu),
-            useful_lane_tex: n * u64::from(c.tex),
-            useful_lanes: n,
-        });
+        acc.cost.stage_mut(stage).add(&dense_lanes(block, n, self.simd_width));
     }
 
     /// Rasterizes the kept grid triangles into the right view: per pixel the nearest
