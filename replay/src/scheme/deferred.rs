@@ -27,6 +27,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::distinct_triangles;
 use super::light_lists::{
     charge_culling, depth_bounds, list_bytes, slice_depths, slice_of, LightCuller, CLUSTER_SLICES, CLUSTER_TILE,
     LIGHT_LISTS, TILED_TILE,
@@ -117,8 +118,8 @@ struct DeferredJob {
     blocks: BlockSet,
     /// The G-buffer of every tile this job touches, by (view, tile), in the tile's sample order.
     tiles: BTreeMap<(u8, u32), Vec<GSample>>,
-    /// Triangles already lit in the current pixel (MSAA deduplication).
-    shaded: Vec<(u32, Vec4)>,
+    /// The current pixel's distinct triangles and their sample masks (MSAA deduplication).
+    shaded: Vec<(u32, u32)>,
     /// The frame's lights as cull volumes (made at the job's first tile).
     culler: Option<LightCuller>,
     /// The current tiled list.
@@ -286,17 +287,11 @@ impl DeferredJob {
                 acc.log.touch(stream, line, false);
                 acc.log
                     .touch(Stream::Color, ctx.layout.color_line(buffer.view, x, y), true);
-                self.shaded.clear();
-                for s in 0..samples {
-                    let i = first + s;
-                    let tri = buffer.tri[i];
-                    if tri == NO_PRIMITIVE {
-                        continue;
-                    }
-                    if let Some(&(_, colour)) = self.shaded.iter().find(|(t, _)| *t == tri) {
-                        buffer.color[i] = colour;
-                        continue;
-                    }
+                let mut shaded = std::mem::take(&mut self.shaded);
+                distinct_triangles(&buffer.tri[first..first + samples], &mut shaded);
+                for &(tri, mask) in &shaded {
+                    // The triangle's first sample: its G-buffer entry and depth.
+                    let i = first + mask.trailing_zeros() as usize;
                     let unit = ctx.unit(tri);
                     let material = unit.triangle.material;
                     let own = unit.attributes(x, y);
@@ -341,9 +336,11 @@ impl DeferredJob {
                     let stage = acc.cost.stage_mut(FINE);
                     self.packer
                         .lane(&self.blocks, true, unit.pixel_id(x, y), stage, acc.heat);
-                    self.shaded.push((tri, colour));
-                    buffer.color[i] = colour;
+                    for s in (0..samples).filter(|s| mask & (1 << s) != 0) {
+                        buffer.color[first + s] = colour;
+                    }
                 }
+                self.shaded = shaded;
             }
         }
         self.packer.flush(acc.cost.stage_mut(FINE), acc.heat);

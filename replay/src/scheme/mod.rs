@@ -264,6 +264,24 @@ pub trait SchemeJob {
     }
 }
 
+/// The distinct triangles among a pixel's samples `tris` (visibility ids), in the order of
+/// their first sample, each with the mask of the samples it covers: what a deferred pass
+/// shades once per pixel and triangle (the MSAA deduplication of DAIS's baseline and its
+/// Listing 1, where the mask's count weights the shade).
+pub fn distinct_triangles(tris: &[u32], out: &mut Vec<(u32, u32)>) {
+    out.clear();
+    for (s, &tri) in tris
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| t != crate::pipeline::NO_PRIMITIVE)
+    {
+        match out.iter_mut().find(|(t, _)| *t == tri) {
+            Some((_, mask)) => *mask |= 1 << s,
+            None => out.push((tri, 1 << s)),
+        }
+    }
+}
+
 /// The quads of one unit that passed the depth test in a visibility pass.
 pub struct VisibleQuads<'a> {
     /// Each quad with its passing samples (bit `lane * samples + sample`).

@@ -32,6 +32,7 @@ use glam::{Vec3, Vec4};
 use shadetrace_formats::results::{DaisStats, ShadingCost, Traffic};
 
 use super::deferred::VISIBILITY;
+use super::distinct_triangles;
 use super::{
     Accounting, FinishedFrame, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, TileContext, UnitContext,
     VisibleQuads,
@@ -186,8 +187,8 @@ struct DaisJob {
     records: HashMap<u32, TriangleRecord>,
     /// The current tile's shading samples and their decoded lighting (multi-rate).
     samples: HashMap<SampleKey, Vec3>,
-    /// Triangles already shaded in the current pixel.
-    shaded: Vec<(u32, Vec4)>,
+    /// The current pixel's distinct triangles and their sample masks.
+    shaded: Vec<(u32, u32)>,
 }
 
 impl SchemeJob for DaisJob {
@@ -292,22 +293,15 @@ impl SchemeJob for DaisJob {
                 }
                 acc.log.touch(Stream::Depth, layout.depth_line(view, x, y), false);
                 acc.log.touch(Stream::Color, layout.color_line(view, x, y), true);
-                self.shaded.clear();
-                for s in 0..samples {
-                    let i = first + s;
-                    let tri = buffer.tri[i];
-                    if tri == NO_PRIMITIVE {
-                        continue;
+                let mut shaded = std::mem::take(&mut self.shaded);
+                distinct_triangles(&buffer.tri[first..first + samples], &mut shaded);
+                for &(tri, mask) in &shaded {
+                    let colour = self.shade(ctx, buffer, x, y, tri, mask == all, acc);
+                    for s in (0..samples).filter(|s| mask & (1 << s) != 0) {
+                        buffer.color[first + s] = colour;
                     }
-                    if let Some(&(_, colour)) = self.shaded.iter().find(|(t, _)| *t == tri) {
-                        buffer.color[i] = colour;
-                        continue;
-                    }
-                    let coverage = (0..samples).filter(|&s| buffer.tri[first + s] == tri).count();
-                    let colour = self.shade(ctx, buffer, x, y, tri, coverage as u32 == all.count_ones(), acc);
-                    self.shaded.push((tri, colour));
-                    buffer.color[i] = colour;
                 }
+                self.shaded = shaded;
             }
         }
         self.fine.flush(acc.cost.stage_mut(FINE), acc.heat);

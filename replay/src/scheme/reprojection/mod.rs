@@ -36,6 +36,7 @@ use glam::{Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{ReprojectionStats, ShadingCost, SpecularError, Traffic, VertexStats};
 
 use super::deferred::{refetched_albedo, VISIBILITY};
+use super::distinct_triangles;
 use super::{
     Accounting, Deferred, FinishedFrame, Lists, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, Target,
     TileContext, UnitContext, ViewContext, ViewPass, VisibleQuads, WorkListState,
@@ -178,8 +179,8 @@ struct ReprojectionJob {
     simd_width: u32,
     packer: SimdPacker,
     blocks: BlockSet,
-    /// Triangles already shaded in the current pixel, with their colour and coverage.
-    shaded: Vec<(u32, Vec4, u32)>,
+    /// The current pixel's distinct triangles and their sample masks.
+    shaded: Vec<(u32, u32)>,
 }
 
 impl SchemeJob for ReprojectionJob {
@@ -530,18 +531,13 @@ impl ReprojectionJob {
     fn reshade(&mut self, ctx: &ViewContext, view: &SampleBuffer, p: u32, acc: &mut Accounting) -> Vec4 {
         let (x, y) = (p % ctx.width, p / ctx.width);
         let samples = view.samples;
-        self.shaded.clear();
-        let mut background = 0u32;
-        for s in 0..samples {
-            let tri = view.tri[p as usize * samples + s];
-            if tri == NO_PRIMITIVE {
-                background += 1;
-                continue;
-            }
-            if let Some(entry) = self.shaded.iter_mut().find(|(t, _, _)| *t == tri) {
-                entry.2 += 1;
-                continue;
-            }
+        let first = p as usize * samples;
+        let mut shaded = std::mem::take(&mut self.shaded);
+        distinct_triangles(&view.tri[first..first + samples], &mut shaded);
+        // Weighted by coverage, after the background's share.
+        let covered: u32 = shaded.iter().map(|&(_, mask)| mask.count_ones()).sum();
+        let mut sum = CLEAR_COLOR * (samples as u32 - covered) as f32;
+        for &(tri, mask) in &shaded {
             let setup = &ctx.setups[tri as usize];
             let unit = UnitContext {
                 view_ctx: *ctx,
@@ -567,15 +563,12 @@ impl ReprojectionJob {
                 acc.cost.stage_mut(FINE),
                 acc.heat,
             );
-            self.shaded.push((tri, colour, 1));
+            sum += colour * mask.count_ones() as f32;
         }
+        self.shaded = shaded;
         acc.log
             .touch(Stream::Color, ctx.layout.color_line(ctx.view, x, y), true);
-        let sum = self
-            .shaded
-            .iter()
-            .fold(CLEAR_COLOR * background as f32, |sum, &(_, c, n)| sum + c * n as f32);
-        if background as usize == samples {
+        if covered == 0 {
             CLEAR_COLOR
         } else {
             sum / samples as f32
