@@ -251,3 +251,23 @@ fn the_specular_only_error_is_zero_only_when_the_eyes_coincide() {
         assert!(plain["frames"][0]["reprojection"].get("specular_error").is_none());
     }
 }
+
+/// `--grid-cell` sets the warping grid's cells; `--bvh-cache-kb` the cache BVH fetches go
+/// through (a smaller one misses more, never changing the pixels).
+#[test]
+fn grid_cell_and_bvh_cache_options_take_effect() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = capture(dir.path(), "builtin:light-room", "0.5");
+    let (eight, _) = run(&t, "repro-rt", &["--grid-cell", "8", "--no-reference"], dir.path());
+    assert_eq!(stats(&eight, "grid_cells"), 96_u64.div_ceil(8) * 108_u64.div_ceil(8));
+    let (small, a) = run(&t, "repro-rt", &["--bvh-cache-kb", "1", "--no-reference"], dir.path());
+    let (large, b) = run(&t, "repro-rt", &["--bvh-cache-kb", "256", "--no-reference"], dir.path());
+    assert!(a == b);
+    let misses = |r: &Value| r["frames"][0]["caches"]["bvh"]["misses"].as_u64().unwrap();
+    assert!(
+        misses(&small) > misses(&large),
+        "{} vs {}",
+        misses(&small),
+        misses(&large)
+    );
+}
