@@ -44,6 +44,14 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Panics capture contains (a decoder's, on a corrupt file) become one-line errors;
+    // print only the others.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !shadetrace_capture::contained::is_containing() {
+            default_hook(info);
+        }
+    }));
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Capture(args) => commands::capture::run(args),

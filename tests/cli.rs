@@ -583,3 +583,19 @@ fn the_compare_table_fits_100_columns() {
         assert!(line.chars().count() <= 100, "{} columns: {line}", line.chars().count());
     }
 }
+
+/// A Draco stream the decoder panics on (see capture's `compressed` tests): one `error:`
+/// line naming the file, no panic message, no trace.
+#[test]
+fn corrupt_draco_gives_one_line_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("capture/tests/fixtures/wavy_grid-draco.glb");
+    let mut glb = std::fs::read(fixture).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    glb[20 + json_len + 8 + 168 + 1661] = 0xff;
+    let input = dir.path().join("corrupt.glb");
+    std::fs::write(&input, &glb).unwrap();
+    let out = dir.path().join("corrupt.strace");
+    let o = shadetrace(&["capture", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&o, "corrupt Draco data", Some(&out));
+}

@@ -10,22 +10,29 @@
 //! - `pbrMetallicRoughness` base colour factor and texture (with KHR_texture_transform
 //!   baked into the UVs), alpha mode, double-sidedness, and a Phong approximation of
 //!   metallic/roughness ([`phong_from_metallic_roughness`]);
-//! - PNG, JPEG and WebP images (WebP also through EXT_texture_webp) as RGBA8, scaled down
-//!   to [`ImportOptions::max_texture`]; other texture maps are dropped with a warning;
+//! - PNG, JPEG and WebP images (WebP also through EXT_texture_webp) and KTX2 Basis Universal
+//!   images (KHR_texture_basisu, [`basisu`]) as RGBA8, scaled down to
+//!   [`ImportOptions::max_texture`]; other texture maps are dropped with a warning;
+//! - compressed geometry: Draco primitives (KHR_draco_mesh_compression, [`draco`]),
+//!   meshopt buffer views (EXT_/KHR_meshopt_compression, [`meshopt`]) and quantized
+//!   attributes (KHR_mesh_quantization);
 //! - KHR_lights_punctual lights (at their pose at t = 0; the first directional light
 //!   casts shadows), perspective cameras, and translation/rotation/scale animation of
 //!   all animations played together, with linear-blend skinning.
 //!
 //! Skipped with a warning: points and lines, orthographic cameras, morph targets and
 //! weight animation, and extensions the file uses but does not require. A file that
-//! *requires* an extension this importer does not implement (Draco, meshopt, Basis, ...)
-//! is rejected (KHR_mesh_quantization is implemented), as are invalid data (NaN/Inf positions,
-//! out-of-range indices, missing POSITION, dangling references) and missing files, each
-//! with one line naming the file and the problem.
+//! *requires* an extension this importer does not implement (the README's coverage table
+//! lists them) is rejected, as are invalid data (NaN/Inf positions, out-of-range indices,
+//! missing POSITION, dangling references, corrupt compressed streams) and missing files,
+//! each with one line naming the file and the problem.
 
+mod basisu;
 mod data;
+mod draco;
 mod geometry;
 mod material;
+mod meshopt;
 mod motion;
 
 use std::path::Path;
@@ -64,6 +71,10 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "EXT_texture_webp",
     "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+    "KHR_draco_mesh_compression",
+    "KHR_texture_basisu",
 ];
 
 /// Extensions a file may require that change nothing shadetrace renders (its shader has no

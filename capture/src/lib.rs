@@ -3,6 +3,7 @@
 
 pub mod camera_path;
 pub mod capture;
+pub mod contained;
 pub mod error;
 pub mod gltf_import;
 pub mod procedural;

@@ -5,6 +5,7 @@
 //! accessor iterators assert on inconsistent strides and index without checks, so that a
 //! malformed file gets an error naming the broken object instead of a panic.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{Mat4, Vec2, Vec3};
@@ -13,7 +14,7 @@ use gltf::json::{
     accessor::{ComponentType, Type},
 };
 
-use super::{input, unsupported, valid, Fallible};
+use super::{draco, input, meshopt, unsupported, valid, Fallible};
 
 /// The JSON part of a file and, for a GLB container, its `BIN` chunk.
 pub(super) struct Container<'a> {
@@ -293,12 +294,20 @@ fn to_usize(value: u64, what: &str) -> Fallible<usize> {
 pub(super) struct Reader<'a> {
     root: &'a json::Root,
     buffers: Vec<Vec<u8>>,
+    /// The decoded bytes of meshopt-compressed buffer views, by view index.
+    decoded_views: HashMap<usize, Vec<u8>>,
+    /// The elements of accessors decoded from Draco streams, tightly packed, by accessor
+    /// index; they replace the accessor's (absent) buffer view.
+    decoded_accessors: HashMap<usize, Vec<u8>>,
 }
 
 impl<'a> Reader<'a> {
     /// Loads every buffer: the GLB `BIN` chunk for the buffer without a URI, otherwise
     /// the URI's bytes, read up to the declared `byteLength` (at most
-    /// [`MAX_BUFFER_BYTES`]). Each must hold at least its declared `byteLength`.
+    /// [`MAX_BUFFER_BYTES`]). Each must hold at least its declared `byteLength`, except a
+    /// meshopt fallback buffer, which is never read: its views are decoded from
+    /// compressed bytes elsewhere (at most [`MAX_BUFFER_BYTES`] of them in all). Draco
+    /// primitives are decoded here too, within the same bound.
     pub fn new(root: &'a json::Root, mut bin: Option<&[u8]>, folder: &Path) -> Fallible<Reader<'a>> {
         let mut buffers = Vec::with_capacity(root.buffers.len());
         for (i, buffer) in root.buffers.iter().enumerate() {
@@ -308,6 +317,10 @@ impl<'a> Reader<'a> {
                 return Err(input(format!(
                     "{what} declares byteLength {declared}, more than the {MAX_BUFFER_BYTES} bytes capture reads"
                 )));
+            }
+            if meshopt::is_fallback(buffer) {
+                buffers.push(Vec::new());
+                continue;
             }
             let bytes = match &buffer.uri {
                 Some(uri) => {
@@ -329,12 +342,23 @@ impl<'a> Reader<'a> {
             }
             buffers.push(bytes);
         }
-        Ok(Reader { root, buffers })
+        let decoded_views = meshopt::decode_views(root, &buffers, MAX_BUFFER_BYTES)?;
+        let mut reader = Reader {
+            root,
+            buffers,
+            decoded_views,
+            decoded_accessors: HashMap::new(),
+        };
+        reader.decoded_accessors = draco::decode_accessors(root, |v| reader.view_bytes(v), MAX_BUFFER_BYTES)?;
+        Ok(reader)
     }
 
     /// The bytes of one buffer view.
     pub fn view_bytes(&self, index: json::Index<json::buffer::View>) -> Fallible<&[u8]> {
         let v = index.value();
+        if let Some(bytes) = self.decoded_views.get(&v) {
+            return Ok(bytes);
+        }
         let view = self
             .root
             .buffer_views
@@ -432,6 +456,11 @@ impl<'a> Reader<'a> {
         let count = to_usize(accessor.count.0, &what)?;
 
         let mut out: Vec<T> = match accessor.buffer_view {
+            _ if self.decoded_accessors.contains_key(&i) => {
+                let bytes = &self.decoded_accessors[&i];
+                // Draco accessors have no sparse part: their elements are all there is.
+                return Ok(bytes.chunks_exact(size).map(decode).collect());
+            }
             Some(v) => {
                 let bytes = self.view_bytes(v)?;
                 let view = &self.root.buffer_views[v.value()];

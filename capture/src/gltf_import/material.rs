@@ -16,6 +16,7 @@ use image::{imageops::FilterType, DynamicImage, GenericImageView, ImageDecoder, 
 const MAX_DECODED_IMAGE_BYTES: u64 = 256 << 20;
 use shadetrace_formats::{AlphaMode, Material, Texture, Wrap};
 
+use super::basisu;
 use super::data::{self, Reader};
 use super::geometry::{UvSource, UvTransform};
 use super::{input, unsupported, valid, Fallible};
@@ -204,14 +205,17 @@ impl<'a> Materials<'a> {
             .textures
             .get(index)
             .ok_or_else(|| input(format!("{what} does not exist")))?;
-        // EXT_texture_webp names the WebP image; `source`, if there is one, is a fallback.
-        let webp = texture
-            .extensions
-            .as_ref()
-            .and_then(|e| e.others.get("EXT_texture_webp"))
-            .and_then(|w| w.get("source"))
-            .and_then(|s| s.as_u64());
-        let image_index = match webp {
+        // KHR_texture_basisu and EXT_texture_webp name the image in their format; `source`,
+        // if there is one, is a fallback for viewers without them.
+        let extension_source = [basisu::EXTENSION, "EXT_texture_webp"].into_iter().find_map(|name| {
+            texture
+                .extensions
+                .as_ref()
+                .and_then(|e| e.others.get(name))
+                .and_then(|w| w.get("source"))
+                .and_then(|s| s.as_u64())
+        });
+        let image_index = match extension_source {
             Some(i) => usize::try_from(i).unwrap_or(usize::MAX),
             None => texture.source.value(),
         };
@@ -255,7 +259,8 @@ impl<'a> Materials<'a> {
         Ok(t)
     }
 
-    /// Decodes a PNG, JPEG or WebP image to RGBA8 and scales it to the texture size cap.
+    /// Decodes a PNG, JPEG, WebP or KTX2 (Basis Universal) image to RGBA8 and scales it to
+    /// the texture size cap.
     fn decode(&self, image: &json::Image, image_index: usize, texture: usize) -> Fallible<RgbaImage> {
         let what = format!("image {image_index}");
         let (bytes, data_uri_type): (Cow<[u8]>, Option<String>) = match (&image.buffer_view, &image.uri) {
@@ -278,12 +283,17 @@ impl<'a> Materials<'a> {
             .map(|m| m.0.as_str())
             .or(data_uri_type.as_deref());
         // The bytes decide: files often carry a wrong or missing mime type.
+        if basisu::is_ktx2(&bytes) {
+            let decoded = basisu::decode(&bytes, self.max_texture, MAX_DECODED_IMAGE_BYTES)
+                .map_err(|e| input(format!("cannot decode {what} of texture {texture}: {e}")))?;
+            return Ok(fit_within(DynamicImage::ImageRgba8(decoded), self.max_texture));
+        }
         let format = match image::guess_format(&bytes) {
             Ok(format @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::WebP)) => format,
             Ok(other) => return Err(unsupported(format!("image format {other:?} in texture {texture}"))),
             Err(_) => {
                 return Err(match declared {
-                    Some(declared @ ("image/png" | "image/jpeg" | "image/webp")) => {
+                    Some(declared @ ("image/png" | "image/jpeg" | "image/webp" | "image/ktx2")) => {
                         input(format!("{what} of texture {texture} is declared {declared} but is not"))
                     }
                     Some(declared) => unsupported(format!("image format {declared} in texture {texture}")),

@@ -277,6 +277,63 @@ pub fn write_quantized_gltf(dir: &Path) -> PathBuf {
     write_json(dir, "quantized.gltf", &doc)
 }
 
+/// Vertices per side of [`write_wavy_grid_glb`]'s grid.
+pub const GRID_SIDE: u16 = 17;
+
+/// A wavy 2 m x 2 m grid of 512 triangles (17 x 17 vertices, smooth normals, UVs over
+/// [0, 1]², the checker texture) in a GLB: the source the compressed fixtures in
+/// `capture/tests/fixtures/` were made from (`scripts/make-compressed-fixtures.sh`).
+pub fn write_wavy_grid_glb(dir: &Path) -> PathBuf {
+    let n = usize::from(GRID_SIDE);
+    let (mut positions, mut normals, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    for j in 0..n {
+        for i in 0..n {
+            let (u, v) = (i as f32 / (n - 1) as f32, j as f32 / (n - 1) as f32);
+            let (x, z) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+            let (kx, kz) = (2.0, 3.0);
+            let y = 0.1 * (kx * x).sin() * (kz * z).cos();
+            let (dx, dz) = (
+                0.1 * kx * (kx * x).cos() * (kz * z).cos(),
+                -0.1 * kz * (kx * x).sin() * (kz * z).sin(),
+            );
+            let len = (dx * dx + 1.0 + dz * dz).sqrt();
+            positions.extend_from_slice(&[x, y, z]);
+            normals.extend_from_slice(&[-dx / len, 1.0 / len, -dz / len]);
+            uvs.extend_from_slice(&[u, v]);
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..GRID_SIDE - 1 {
+        for i in 0..GRID_SIDE - 1 {
+            let a = j * GRID_SIDE + i;
+            let (b, c, d) = (a + 1, a + GRID_SIDE + 1, a + GRID_SIDE);
+            indices.extend_from_slice(&[a, d, c, a, c, b]);
+        }
+    }
+    let mut bin = Bin::default();
+    let position = bin.floats(&positions, "VEC3");
+    let normal = bin.floats(&normals, "VEC3");
+    let uv = bin.floats(&uvs, "VEC2");
+    let index = bin.u16s(&indices);
+    let image = bin.view(&png_bytes(&checker_image()));
+    let mut doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "name": "grid", "mesh": 0 }],
+        "meshes": [{ "name": "Grid", "primitives": [{
+            "attributes": { "POSITION": position, "NORMAL": normal, "TEXCOORD_0": uv },
+            "indices": index,
+            "material": 0
+        }] }],
+        "materials": [{ "name": "checker", "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "name": "checker", "bufferView": image, "mimeType": "image/png" }]
+    });
+    bin.finish(&mut doc, None);
+    let path = dir.join("wavy_grid.glb");
+    std::fs::write(&path, glb_bytes(&doc, &bin.bytes)).expect("write glb");
+    path
+}
+
 /// The 36 bytes of [`write_gltf_with_buffer_uri`]'s triangle (three `VEC3` floats).
 pub fn triangle_buffer() -> Vec<u8> {
     [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
