@@ -536,6 +536,8 @@ fn check_outside_a_corpus_says_how_to_name_one() {
     assert_clean_failure(&o, "--traces DIR", None);
 }
 
+/// Maps that sample other UVs than base colour (here: without its texture transform) are
+/// named in one warning.
 #[test]
 fn texture_maps_that_are_not_captured_are_named_in_a_warning() {
     let dir = tempfile::tempdir().unwrap();
@@ -556,7 +558,10 @@ fn texture_maps_that_are_not_captured_are_named_in_a_warning() {
     assert!(o.status.success(), "{}", stderr(&o));
     let warning = stderr(&o);
     assert!(
-        warning.contains("material 0") && warning.contains("normal, emissive texture map(s) ignored"),
+        warning.contains("material 0")
+            && warning.contains("normal (its UVs")
+            && warning.contains("emissive (its UVs")
+            && warning.contains("ignored"),
         "{warning}"
     );
 }

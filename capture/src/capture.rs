@@ -358,8 +358,11 @@ fn far_plane(head: &Pose, bounds: &Aabb, near: f32) -> f32 {
 fn features(scene: &Scene) -> Features {
     let mut f = Features::NONE;
     let meshes = &scene.geometry.meshes;
-    if scene.materials.iter().any(|m| m.base_color_texture.is_some()) {
+    if !scene.textures.is_empty() {
         f.insert(Feature::Textures);
+    }
+    if !scene.surface_maps.is_empty() {
+        f.insert(Feature::SurfaceMaps);
     }
     let shadowed = scene.lights.iter().filter(|l| l.shadowed).count();
     if shadowed > 0 {

@@ -12,7 +12,9 @@
 //!   metallic/roughness ([`phong_from_metallic_roughness`]);
 //! - PNG, JPEG and WebP images (WebP also through EXT_texture_webp) and KTX2 Basis Universal
 //!   images (KHR_texture_basisu, [`basisu`]) as RGBA8, scaled down to
-//!   [`ImportOptions::max_texture`]; other texture maps are dropped with a warning;
+//!   [`ImportOptions::max_texture`]; normal (with tangents, [`tangents`]), metallic-roughness,
+//!   occlusion and emissive maps on the base colour's UVs, with `KHR_materials_emissive_strength`
+//!   (others are dropped with a warning);
 //! - compressed geometry: Draco primitives (KHR_draco_mesh_compression, [`draco`]),
 //!   meshopt buffer views (EXT_/KHR_meshopt_compression, [`meshopt`]) and quantized
 //!   attributes (KHR_mesh_quantization);
@@ -34,10 +36,11 @@ mod geometry;
 mod material;
 mod meshopt;
 mod motion;
+mod tangents;
 
 use std::path::Path;
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 use gltf::json::{
     self, camera::Type as CameraType, extensions::scene::khr_lights_punctual::Type as LightType, mesh::Mode,
     mesh::Semantic, validation::Checked,
@@ -50,7 +53,7 @@ use crate::source::{SourceCamera, SourceScene, MAX_WORLD_COORDINATE_M};
 use crate::{Error, Result};
 use geometry::{TriangleMode, Triangles};
 
-pub use material::phong_from_metallic_roughness;
+pub use shadetrace_formats::phong_from_metallic_roughness;
 
 /// Largest `.gltf` / `.glb` file capture reads.
 const MAX_GLTF_FILE_BYTES: u64 = 4 << 30;
@@ -75,11 +78,8 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_meshopt_compression",
     "KHR_draco_mesh_compression",
     "KHR_texture_basisu",
+    "KHR_materials_emissive_strength",
 ];
-
-/// Extensions a file may require that change nothing shadetrace renders (its shader has no
-/// emissive term), so such a file imports as faithfully as one without them.
-const INVISIBLE_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
 
 /// Loads a `.gltf` or `.glb` file. Errors name `path` and the problem on one line.
 pub fn load_gltf(path: &Path, opts: &ImportOptions) -> Result<SourceScene> {
@@ -152,11 +152,7 @@ fn check_extensions(json_bytes: &[u8], warnings: &mut Warnings) -> Fallible<()> 
     let lists: ExtensionLists =
         json::deserialize::from_slice(json_bytes).map_err(|e| input(format!("invalid glTF JSON: {e}")))?;
     let implemented = |ext: &str| IMPLEMENTED_EXTENSIONS.contains(&ext);
-    if let Some(ext) = lists
-        .required
-        .iter()
-        .find(|ext| !implemented(ext) && !INVISIBLE_EXTENSIONS.contains(&ext.as_str()))
-    {
+    if let Some(ext) = lists.required.iter().find(|ext| !implemented(ext)) {
         return Err(unsupported(format!("glTF extension {ext} (required by the file)")));
     }
     let mut ignored: Vec<&str> = Vec::new();
@@ -229,6 +225,7 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
         world: motion.world_matrices(0.0),
         motion,
         meshes: Vec::new(),
+        tangents: Vec::new(),
         lights: Vec::new(),
         cameras: Vec::new(),
         warnings,
@@ -241,6 +238,7 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
         mut materials,
         motion,
         meshes,
+        tangents,
         lights,
         cameras,
         mut warnings,
@@ -249,7 +247,23 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
     for line in std::mem::take(&mut materials.dropped_maps) {
         warnings.push(line);
     }
-    let (materials, textures) = materials.into_parts();
+    let (materials, textures, mut surface_maps) = materials.into_parts();
+    // A normal map dropped after some of its meshes were read leaves them tangents
+    // nothing reads.
+    surface_maps.tangents = meshes
+        .iter()
+        .zip(tangents)
+        .map(|(mesh, t)| {
+            if surface_maps.of(mesh.material).normal.is_some() {
+                t
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    if surface_maps.is_empty() {
+        surface_maps = Default::default();
+    }
     let lossy = |s: Option<&std::ffi::OsStr>| s.map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     Ok(SourceScene {
         name: lossy(path.file_stem()),
@@ -262,6 +276,7 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
             materials,
             textures,
             lights,
+            surface_maps,
         },
         cameras,
         animation_duration_s: motion.duration_s(),
@@ -279,6 +294,8 @@ struct Importer<'a> {
     /// World matrix of every node at t = 0.
     world: Vec<Mat4>,
     meshes: Vec<Mesh>,
+    /// Each mesh's tangents (empty without a normal map).
+    tangents: Vec<Vec<Vec4>>,
     lights: Vec<Light>,
     cameras: Vec<SourceCamera>,
     warnings: Warnings,
@@ -337,6 +354,10 @@ impl Importer<'_> {
                 .filter(|_| has(Semantic::Joints(0)) && has(Semantic::Weights(0)))
                 .map(|s| s.value());
             let (material, uv) = self.materials.resolve(primitive.material)?;
+            if skin.is_some() {
+                // Frames carry skinned positions and normals, not tangents.
+                self.materials.drop_normal_map(material, "on a skinned mesh");
+            }
             let mut triangles = Triangles::read(
                 self.reader,
                 primitive,
@@ -344,6 +365,7 @@ impl Importer<'_> {
                 &label,
                 uv,
                 skin.is_some(),
+                self.materials.has_normal_map(material),
                 &mut self.warnings,
             )?;
             if triangles.indices.is_empty() {
@@ -382,6 +404,7 @@ impl Importer<'_> {
             } else {
                 mesh_name.clone()
             };
+            self.tangents.push(triangles.tangents);
             self.meshes.push(Mesh {
                 name,
                 material,

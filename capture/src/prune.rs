@@ -1,7 +1,7 @@
 //! Model only what the scene requires: drop materials no mesh uses, textures no kept
 //! material samples, and uvs of meshes whose material samples no texture.
 
-use shadetrace_formats::Scene;
+use shadetrace_formats::{MaterialMaps, Scene};
 
 /// Removes unused materials and textures (renumbering references, order kept) and
 /// strips uvs that no texture lookup will read.
@@ -13,6 +13,10 @@ pub fn prune(scene: &mut Scene) {
         }
     }
     let material_map = compact(&mut scene.materials, &material_used);
+    let maps = &mut scene.surface_maps;
+    if !maps.materials.is_empty() {
+        compact(&mut maps.materials, &material_used);
+    }
     for mesh in &mut scene.geometry.meshes {
         // Out-of-range references are left for trace validation to report.
         if let Some(Some(new)) = material_map.get(mesh.material as usize) {
@@ -21,27 +25,66 @@ pub fn prune(scene: &mut Scene) {
     }
 
     let mut texture_used = vec![false; scene.textures.len()];
-    for t in scene.materials.iter().filter_map(|m| m.base_color_texture) {
+    let used_by_maps = scene.surface_maps.materials.iter().flat_map(map_textures);
+    for t in scene
+        .materials
+        .iter()
+        .filter_map(|m| m.base_color_texture)
+        .chain(used_by_maps)
+    {
         if let Some(used) = texture_used.get_mut(t as usize) {
             *used = true;
         }
     }
     let texture_map = compact(&mut scene.textures, &texture_used);
+    // Out-of-range references are left for trace validation to report.
+    let renumber = |t: &mut u32| {
+        if let Some(Some(new)) = texture_map.get(*t as usize) {
+            *t = *new;
+        }
+    };
     for material in &mut scene.materials {
-        if let Some(Some(new)) = material.base_color_texture.and_then(|t| texture_map.get(t as usize)) {
-            material.base_color_texture = Some(*new);
+        if let Some(t) = &mut material.base_color_texture {
+            renumber(t);
         }
     }
+    let maps = &mut scene.surface_maps;
+    for m in &mut maps.materials {
+        m.normal.iter_mut().for_each(|n| renumber(&mut n.0));
+        m.metallic_roughness.iter_mut().for_each(|r| renumber(&mut r.0));
+        m.occlusion.iter_mut().for_each(|o| renumber(&mut o.0));
+        m.emissive_texture.iter_mut().for_each(renumber);
+    }
+    maps.linear_textures
+        .retain(|&t| texture_used.get(t as usize).copied().unwrap_or(true));
+    maps.linear_textures.iter_mut().for_each(renumber);
 
+    if scene.surface_maps.is_empty() {
+        scene.surface_maps = Default::default();
+    }
     for mesh in &mut scene.geometry.meshes {
+        let m = mesh.material;
         let textured = scene
             .materials
-            .get(mesh.material as usize)
-            .is_some_and(|m| m.base_color_texture.is_some());
+            .get(m as usize)
+            .is_some_and(|m| m.base_color_texture.is_some())
+            || map_textures(scene.surface_maps.of(m)).next().is_some();
         if !textured {
             mesh.uvs = Vec::new();
         }
     }
+}
+
+/// The textures a material's maps sample.
+fn map_textures(m: &MaterialMaps) -> impl Iterator<Item = u32> {
+    [
+        m.normal.map(|n| n.0),
+        m.metallic_roughness.map(|r| r.0),
+        m.occlusion.map(|o| o.0),
+        m.emissive_texture,
+    ]
+    .into_iter()
+    .flatten()
 }
 
 /// Keeps the items whose flag is set and returns the old-to-new index map.
@@ -106,6 +149,7 @@ mod tests {
             ],
             textures: vec![texture("a"), texture("b"), texture("c")],
             lights: vec![],
+            surface_maps: Default::default(),
         };
         prune(&mut scene);
         let names: Vec<_> = scene.materials.iter().map(|m| m.name.as_str()).collect();

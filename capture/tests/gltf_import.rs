@@ -367,3 +367,78 @@ fn quantized_attributes_decode_as_khr_mesh_quantization_says() {
     let uvs: Vec<[f32; 2]> = mesh.uvs.iter().map(|t| t.to_array()).collect();
     assert_eq!(uvs, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
 }
+
+/// Every map the fixture has ends up in the trace's surface maps: data textures marked
+/// linear, the emissive factor times its strength, MikkTSpace tangents (unit, in the quad's
+/// plane) on the mesh, and no "ignored" warning.
+#[test]
+fn surface_maps_are_captured_with_tangents() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = support::MapsSpec {
+        normal: Some([200, 128, 200, 255]),
+        metallic_roughness: true,
+        occlusion: true,
+        emissive: true,
+        ..Default::default()
+    };
+    let scene = load(&support::write_surface_maps_gltf(dir.path(), spec));
+    assert!(
+        scene.warnings.iter().all(|w| !w.contains("ignored")),
+        "{:?}",
+        scene.warnings
+    );
+    let maps = &scene.scene.surface_maps;
+    let m = maps.of(scene.scene.geometry.meshes[0].material);
+    let (normal, mr, occlusion, emissive) = (
+        m.normal.unwrap(),
+        m.metallic_roughness.unwrap(),
+        m.occlusion.unwrap(),
+        m.emissive_texture.unwrap(),
+    );
+    assert_eq!((normal.1, occlusion.1), (0.5, 0.75));
+    assert_eq!((mr.1, mr.2), (0.5, 0.0), "the fixture's roughness and metallic factors");
+    let expected = support::EMISSIVE_FACTOR.map(|c| c * support::EMISSIVE_STRENGTH);
+    assert_eq!(m.emissive, expected);
+    let texel = |t: u32| scene.scene.textures[t as usize].rgba8[..4].to_vec();
+    assert_eq!(texel(occlusion.0), support::OCCLUSION_TEXEL);
+    assert_eq!(texel(emissive), support::EMISSIVE_TEXEL);
+    let mut linear = maps.linear_textures.clone();
+    linear.sort();
+    let mut data = vec![normal.0, mr.0, occlusion.0];
+    data.sort();
+    assert_eq!(linear, data, "normal, metallic-roughness and occlusion maps hold data");
+    let mesh = &scene.scene.geometry.meshes[0];
+    let tangents = &maps.tangents[0];
+    assert_eq!(tangents.len(), mesh.positions.len());
+    for (t, n) in tangents.iter().zip(&mesh.normals) {
+        assert!(
+            (t.truncate().length() - 1.0).abs() < 1e-5 && t.truncate().dot(*n).abs() < 1e-5,
+            "{t}"
+        );
+        assert!(t.z.abs() < 1e-5, "in the quad's plane: {t}");
+    }
+}
+
+/// A map on another UV set than base colour is dropped with a warning naming it; the
+/// others stay.
+#[test]
+fn a_map_on_another_uv_set_is_named_and_dropped() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = support::MapsSpec {
+        occlusion: true,
+        occlusion_on_second_uv_set: true,
+        emissive: true,
+        ..Default::default()
+    };
+    let scene = load(&support::write_surface_maps_gltf(dir.path(), spec));
+    let m = scene.scene.surface_maps.of(0);
+    assert!(m.occlusion.is_none() && m.emissive_texture.is_some());
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("occlusion") && w.contains("TEXCOORD_1")),
+        "{:?}",
+        scene.warnings
+    );
+}

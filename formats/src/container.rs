@@ -22,12 +22,15 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::hash::{ContentHash, ContentHasher};
-use crate::schema::{Frame, Geometry, Light, Material, Meta, Scene, Texture};
+use crate::schema::{Frame, Geometry, Light, Material, Meta, Scene, SurfaceMaps, Texture};
 use crate::validate;
 
 pub const MAGIC: [u8; 4] = *b"STRC";
 pub const FORMAT_MAJOR: u16 = 1;
-pub const FORMAT_MINOR: u16 = 0;
+/// The newest minor this reader reads. A writer writes the oldest minor that holds
+/// everything in its file: 1 only with a `SurfaceMaps` chunk, so other traces stay
+/// byte-identical to minor-0 ones.
+pub const FORMAT_MINOR: u16 = 1;
 /// Default zstd level of the writer (the level never changes the content hash).
 pub const DEFAULT_ZSTD_LEVEL: i32 = 9;
 /// Largest header extension a reader accepts.
@@ -65,6 +68,8 @@ pub enum ChunkKind {
     Materials,
     Textures,
     Lights,
+    /// Minor 1, optional: [`SurfaceMaps`](crate::SurfaceMaps), between `Lights` and the frames.
+    SurfaceMaps,
     Frame,
     End,
     /// A kind from a newer minor version: skipped (but hashed) by this reader.
@@ -80,6 +85,7 @@ impl ChunkKind {
             ChunkKind::Textures => 4,
             ChunkKind::Lights => 5,
             ChunkKind::Frame => 6,
+            ChunkKind::SurfaceMaps => 7,
             ChunkKind::End => 0x2144_4E45, // "END!"
             ChunkKind::Unknown(code) => code,
         }
@@ -92,6 +98,7 @@ impl ChunkKind {
             ChunkKind::Materials,
             ChunkKind::Textures,
             ChunkKind::Lights,
+            ChunkKind::SurfaceMaps,
             ChunkKind::Frame,
             ChunkKind::End,
         ]
@@ -163,7 +170,8 @@ impl<W: Write> TraceWriter<W> {
         validate::check_scene(scene, &meta.counts)?;
         out.write_all(&MAGIC)?;
         out.write_all(&FORMAT_MAJOR.to_le_bytes())?;
-        out.write_all(&FORMAT_MINOR.to_le_bytes())?;
+        let minor: u16 = if scene.surface_maps.is_empty() { 0 } else { 1 };
+        out.write_all(&minor.to_le_bytes())?;
         out.write_all(&0u32.to_le_bytes())?;
         let mut writer = TraceWriter {
             out,
@@ -179,6 +187,9 @@ impl<W: Write> TraceWriter<W> {
         writer.write_value(ChunkKind::Materials, &scene.materials)?;
         writer.write_value(ChunkKind::Textures, &scene.textures)?;
         writer.write_value(ChunkKind::Lights, &scene.lights)?;
+        if !scene.surface_maps.is_empty() {
+            writer.write_value(ChunkKind::SurfaceMaps, &scene.surface_maps)?;
+        }
         Ok(writer)
     }
 
@@ -362,6 +373,10 @@ impl<R: Read + Seek> TraceReader<R> {
             materials: self.decode_chunk::<Vec<Material>>(m)?,
             textures: self.decode_chunk::<Vec<Texture>>(t)?,
             lights: self.decode_chunk::<Vec<Light>>(l)?,
+            surface_maps: match self.chunks.iter().position(|c| c.kind == ChunkKind::SurfaceMaps) {
+                Some(s) => self.decode_chunk::<SurfaceMaps>(s)?,
+                None => SurfaceMaps::default(),
+            },
         };
         validate::check_scene(&scene, &self.meta.counts)?;
         Ok(scene)
@@ -558,8 +573,8 @@ fn index_chunks<R: Read + Seek>(src: &mut R, mut pos: u64, file_len: u64) -> Res
     }
 }
 
-/// Checks `Meta Geometry Materials Textures Lights Frame*` (unknown kinds anywhere after
-/// `Meta`) and returns the chunk index of every frame.
+/// Checks `Meta Geometry Materials Textures Lights SurfaceMaps? Frame*` (unknown kinds
+/// anywhere after `Meta`) and returns the chunk index of every frame.
 fn check_order(chunks: &[ChunkInfo]) -> Result<Vec<usize>> {
     const STATIC: [ChunkKind; 5] = [
         ChunkKind::Meta,
@@ -573,9 +588,16 @@ fn check_order(chunks: &[ChunkInfo]) -> Result<Vec<usize>> {
     }
     let mut next_static = 0;
     let mut frames = Vec::new();
+    let mut surface_maps_seen = false;
     for (i, chunk) in chunks.iter().enumerate() {
         match chunk.kind {
             ChunkKind::Unknown(_) => {}
+            ChunkKind::SurfaceMaps => {
+                if next_static < STATIC.len() || !frames.is_empty() || surface_maps_seen {
+                    return Err(Error::Corrupt(format!("unexpected SurfaceMaps chunk at position {i}")));
+                }
+                surface_maps_seen = true;
+            }
             ChunkKind::Frame => {
                 if next_static < STATIC.len() {
                     return Err(Error::Corrupt(format!(

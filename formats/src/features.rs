@@ -28,10 +28,12 @@ pub enum Feature {
     PatchIds,
     /// Every textured mesh has a non-overlapping UV atlas.
     UniqueUvAtlas,
+    /// Materials with texture maps beyond base colour (the `SurfaceMaps` chunk).
+    SurfaceMaps,
 }
 
 impl Feature {
-    pub const ALL: [Feature; 9] = [
+    pub const ALL: [Feature; 10] = [
         Feature::Textures,
         Feature::ShadowedLight,
         Feature::ExtraLights,
@@ -41,6 +43,7 @@ impl Feature {
         Feature::Skinning,
         Feature::PatchIds,
         Feature::UniqueUvAtlas,
+        Feature::SurfaceMaps,
     ];
 
     fn bit(self) -> u32 {
@@ -58,6 +61,7 @@ impl Feature {
             Feature::Skinning => "skinning",
             Feature::PatchIds => "patch-ids",
             Feature::UniqueUvAtlas => "unique-uv-atlas",
+            Feature::SurfaceMaps => "surface-maps",
         }
     }
 }

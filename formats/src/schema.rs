@@ -4,7 +4,7 @@
 //! no frame uses, and optional attributes are empty vectors rather than zero-filled,
 //! so a trace says by its contents (and its [`Features`]) what the scene requires.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use serde::{Deserialize, Serialize};
 
 use crate::features::Features;
@@ -112,6 +112,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
+    /// Texture maps beyond base colour; empty for most scenes, and then not written.
+    pub surface_maps: SurfaceMaps,
 }
 
 impl Scene {
@@ -232,6 +234,92 @@ pub enum Wrap {
     Repeat,
     MirroredRepeat,
     ClampToEdge,
+}
+
+/// `SurfaceMaps` chunk (format minor 1, present only when a material uses one): the
+/// glTF maps beyond base colour, which the shader maps to its terms in one place
+/// (`replay/src/shader.rs`). Every map samples the mesh's `uvs`, like base colour.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SurfaceMaps {
+    /// One per material, in `Materials` order; empty when no material has a map.
+    pub materials: Vec<MaterialMaps>,
+    /// One per mesh, in `Geometry` order: a MikkTSpace tangent per vertex (xyz unit, w the
+    /// bitangent's sign), empty for a mesh whose material has no normal map.
+    pub tangents: Vec<Vec<Vec4>>,
+    /// Indices of the textures that hold data, not colour (normal, metallic-roughness,
+    /// occlusion maps): sampled without the sRGB decode.
+    pub linear_textures: Vec<u32>,
+}
+
+impl SurfaceMaps {
+    pub fn is_empty(&self) -> bool {
+        self.materials.iter().all(MaterialMaps::is_empty)
+    }
+
+    /// The maps of material `m` (none for a material past the list).
+    pub fn of(&self, m: u32) -> &MaterialMaps {
+        const NONE: &MaterialMaps = &MaterialMaps::NONE;
+        self.materials.get(m as usize).unwrap_or(NONE)
+    }
+}
+
+/// One material's maps. Textures index the `Textures` chunk.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialMaps {
+    /// Tangent-space normal map and its `scale` (glTF `normalTexture`).
+    pub normal: Option<(u32, f32)>,
+    /// glTF `metallicRoughnessTexture` (roughness in G, metallic in B) with the material's
+    /// roughness and metallic factors, which it multiplies.
+    pub metallic_roughness: Option<(u32, f32, f32)>,
+    /// Ambient occlusion in R and its `strength` (glTF `occlusionTexture`).
+    pub occlusion: Option<(u32, f32)>,
+    /// Linear emitted radiance: the emissive factor times `KHR_materials_emissive_strength`.
+    pub emissive: [f32; 3],
+    /// sRGB emissive texture multiplying `emissive`.
+    pub emissive_texture: Option<u32>,
+}
+
+impl MaterialMaps {
+    pub const NONE: MaterialMaps = MaterialMaps {
+        normal: None,
+        metallic_roughness: None,
+        occlusion: None,
+        emissive: [0.0; 3],
+        emissive_texture: None,
+    };
+
+    pub fn is_empty(&self) -> bool {
+        *self == MaterialMaps::NONE
+    }
+}
+
+/// Specular exponents are clamped to this range (see [`phong_from_metallic_roughness`]).
+const MIN_EXPONENT: f32 = 1.0;
+const MAX_EXPONENT: f32 = 4096.0;
+/// Smallest GGX width kept, so that a roughness of 0 gives a finite exponent.
+const MIN_ALPHA: f32 = 1e-3;
+/// Fresnel reflectance at normal incidence of dielectrics (glTF's metallic-roughness model).
+const DIELECTRIC_F0: f32 = 0.04;
+
+/// Maps glTF metallic-roughness factors to the Phong parameters of shadetrace's shader,
+/// returning `(specular_exponent, specular_strength)`.
+///
+/// Roughness `r` is perceptual; the microfacet (GGX) width is `alpha = max(r², 1e-3)`. A
+/// Blinn-Phong lobe with exponent `nb = 2 / alpha² - 2` has the same width (Walter et al.
+/// 2007), and a Phong `(R·L)^n` lobe matches a Blinn-Phong one for `n ≈ nb / 4` (the half
+/// vector's angle to the normal is about half the reflection vector's angle to the
+/// light), so `n = clamp(nb / 4, 1, 4096)`. The specular strength is the Fresnel
+/// reflectance at normal incidence, 0.04 for dielectrics and 1 for metals, blended by
+/// metallic `m`: `0.04 (1 - m) + m`. Factors are clamped to [0, 1]. Capture maps the factors with
+/// it; replay maps each texel of a metallic-roughness texture times the factors with it.
+pub fn phong_from_metallic_roughness(roughness: f32, metallic: f32) -> (f32, f32) {
+    let r = roughness.clamp(0.0, 1.0);
+    let m = metallic.clamp(0.0, 1.0);
+    let alpha = (r * r).max(MIN_ALPHA);
+    let blinn = 2.0 / (alpha * alpha) - 2.0;
+    let exponent = (blinn / 4.0).clamp(MIN_EXPONENT, MAX_EXPONENT);
+    let strength = DIELECTRIC_F0 * (1.0 - m) + m;
+    (exponent, strength)
 }
 
 /// `Lights` chunk entry. Lights are static over the trace.

@@ -46,6 +46,73 @@ pub fn check_meta(meta: &Meta) -> Result<()> {
 }
 
 /// Checks the static chunks against each other and against the counts in `Meta`.
+/// The `SurfaceMaps` chunk against the scene: textures exist, factors are finite, one
+/// tangent list per mesh with one unit tangent per vertex where a normal map needs them.
+fn check_surface_maps(scene: &Scene) -> Result<()> {
+    let maps = &scene.surface_maps;
+    if maps.is_empty() {
+        return Ok(());
+    }
+    let textures = scene.textures.len();
+    if maps.materials.len() != scene.materials.len() {
+        return Err(invalid(format!(
+            "surface maps for {} materials, but the scene has {}",
+            maps.materials.len(),
+            scene.materials.len()
+        )));
+    }
+    if let Some(t) = maps.linear_textures.iter().find(|&&t| t as usize >= textures) {
+        return Err(invalid(format!("surface maps name missing texture {t} as linear")));
+    }
+    for (i, m) in maps.materials.iter().enumerate() {
+        let what = |msg: String| invalid(format!("surface maps of material {i}: {msg}"));
+        let used = [
+            m.normal.map(|n| n.0),
+            m.metallic_roughness.map(|r| r.0),
+            m.occlusion.map(|o| o.0),
+            m.emissive_texture,
+        ];
+        if let Some(t) = used.into_iter().flatten().find(|&t| t as usize >= textures) {
+            return Err(what(format!("texture {t} does not exist")));
+        }
+        let factors = [
+            m.normal.map_or(0.0, |n| n.1),
+            m.metallic_roughness.map_or(0.0, |r| r.1),
+            m.metallic_roughness.map_or(0.0, |r| r.2),
+            m.occlusion.map_or(0.0, |o| o.1),
+        ];
+        if !factors.iter().chain(&m.emissive).all(|f| f.is_finite()) {
+            return Err(what("non-finite factor".to_string()));
+        }
+    }
+    let meshes = &scene.geometry.meshes;
+    if maps.tangents.len() != meshes.len() {
+        return Err(invalid(format!(
+            "surface maps hold tangents for {} meshes, but the scene has {}",
+            maps.tangents.len(),
+            meshes.len()
+        )));
+    }
+    for (i, (mesh, tangents)) in meshes.iter().zip(&maps.tangents).enumerate() {
+        let needs = maps.of(mesh.material).normal.is_some();
+        let ok = if needs {
+            tangents.len() == mesh.positions.len()
+                && tangents
+                    .iter()
+                    .all(|t| t.is_finite() && (t.truncate().length() - 1.0).abs() < 1e-3)
+        } else {
+            tangents.is_empty()
+        };
+        if !ok {
+            return Err(invalid(format!(
+                "mesh {i} ({}): tangents must be one finite unit vector per vertex exactly when its material has a normal map",
+                mesh.name
+            )));
+        }
+    }
+    Ok(())
+}
+
 pub fn check_scene(scene: &Scene, counts: &Counts) -> Result<()> {
     let expected = scene.counts(counts.frames);
     if &expected != counts {
@@ -81,6 +148,7 @@ pub fn check_scene(scene: &Scene, counts: &Counts) -> Result<()> {
             )));
         }
     }
+    check_surface_maps(scene)?;
     for (i, mesh) in scene.geometry.meshes.iter().enumerate() {
         let what = |msg: &str| invalid(format!("mesh {i} ({}): {msg}", mesh.name));
         let n = mesh.positions.len();

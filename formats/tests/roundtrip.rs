@@ -23,6 +23,25 @@ fn sample_round_trips() {
     assert_eq!(decoded.hash, hash);
 }
 
+/// A scene with surface maps is written as format minor 1 with its `SurfaceMaps` chunk and
+/// reads back whole; without maps the file stays minor 0, as it was before the chunk.
+#[test]
+fn surface_maps_round_trip_in_minor_1_only() {
+    let frames: Vec<Frame> = (0..2).map(sample_frame).collect();
+    for (scene, minor) in [(sample_scene(), 0u16), (sample_scene_with_maps(), 1)] {
+        let meta = meta_for(&scene, 2);
+        let (bytes, _) = write_trace(&meta, &scene, &frames, 3);
+        assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), minor);
+        let decoded = read_all(&bytes).unwrap();
+        assert_eq!(decoded.scene, scene);
+    }
+    // Tangents must match the normal maps.
+    let mut bad = sample_scene_with_maps();
+    bad.surface_maps.tangents[0].pop();
+    let meta = meta_for(&bad, 2);
+    assert!(TraceWriter::new(Vec::new(), 3, &meta, &bad).is_err());
+}
+
 #[test]
 fn compression_level_does_not_change_the_hash() {
     let scene = sample_scene();

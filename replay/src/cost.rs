@@ -87,7 +87,7 @@ impl BlockSet {
 }
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
-const FIXED_BLOCKS: [Block; 42] = [
+const FIXED_BLOCKS: [Block; 47] = [
     Block::FineSetup,
     Block::AlbedoConstant,
     Block::AlbedoTextured,
@@ -130,6 +130,11 @@ const FIXED_BLOCKS: [Block; 42] = [
     Block::HitAttributes,
     Block::RayCone,
     Block::BvhBuild,
+    Block::NormalMap,
+    Block::MetallicRoughnessMap,
+    Block::OcclusionMap,
+    Block::EmissiveConstant,
+    Block::EmissiveTextured,
 ];
 
 /// What `n` lanes of one block issue when packed densely into SIMD groups of `width` (a

@@ -129,6 +129,20 @@ pub enum Block {
     /// BVH build, per triangle (PLOC: bounds, Morton code, radix sort, nearest-neighbour
     /// merging, over its passes).
     BvhBuild,
+    /// Coarse-able: normal map: interpolate the tangent (4), the bitangent from the cross
+    /// product and sign (4), one trilinear fetch, unpack and scale (3), into world space
+    /// (9 multiply-adds), normalize (3).
+    NormalMap,
+    /// Coarse-able: metallic-roughness map: one fetch, times the two factors (2), then
+    /// capture's roughness-to-Phong mapping (alpha, Blinn exponent, quarter and clamp, the
+    /// Fresnel blend: 8).
+    MetallicRoughnessMap,
+    /// Fine: occlusion map: one fetch, its strength (2), the ambient part removed (3).
+    OcclusionMap,
+    /// Fine: a constant emissive colour added (3).
+    EmissiveConstant,
+    /// Fine: the emissive colour times one fetch of its texture (3), added (3).
+    EmissiveTextured,
 }
 
 impl Block {
@@ -167,6 +181,11 @@ impl Block {
             Block::HitAttributes => (18, 0),
             Block::RayCone => (10, 0),
             Block::BvhBuild => (60, 0),
+            Block::NormalMap => (23, 1),
+            Block::MetallicRoughnessMap => (10, 1),
+            Block::OcclusionMap => (5, 1),
+            Block::EmissiveConstant => (3, 0),
+            Block::EmissiveTextured => (6, 1),
             Block::Resample => (7, 0),
             Block::PredicateDiffuse => (2, 0),
             Block::PredicateSpecular => (6, 0),

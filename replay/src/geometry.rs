@@ -2,7 +2,7 @@
 //! concatenated, triangles in submission order. The triangle index is the primitive id that
 //! breaks depth ties, and the vertex index addresses the triangle data in the memory model.
 
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3, Vec4};
 use shadetrace_formats::{Frame, Motion, Scene};
 
 /// One triangle in submission order.
@@ -24,6 +24,9 @@ pub struct FrameGeometry {
     pub normals: Vec<Vec3>,
     /// Zero for meshes without uvs (their materials sample no texture).
     pub uvs: Vec<Vec2>,
+    /// World-space tangents (bitangent sign in w), zero where no normal map reads them;
+    /// empty when the scene has no normal map.
+    pub tangents: Vec<Vec4>,
     pub triangles: Vec<Triangle>,
 }
 
@@ -55,6 +58,26 @@ impl FrameGeometry {
                 g.uvs.resize(g.positions.len(), Vec2::ZERO);
             } else {
                 g.uvs.extend_from_slice(&mesh.uvs);
+            }
+            let tangents = scene
+                .surface_maps
+                .tangents
+                .get(mesh_index)
+                .map_or(&[][..], Vec::as_slice);
+            if !scene.surface_maps.tangents.is_empty() {
+                match mesh.motion {
+                    // Capture gives skinned meshes no tangents (frames carry none).
+                    Motion::Static | Motion::Skinned { .. } => g.tangents.extend_from_slice(tangents),
+                    Motion::Rigid { slot } => {
+                        let m = frame.rigid_transforms[slot as usize];
+                        let sign = if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+                        g.tangents.extend(tangents.iter().map(|t| {
+                            let xyz = m.transform_vector3(t.truncate()).normalize_or(Vec3::X);
+                            xyz.extend(t.w * sign)
+                        }));
+                    }
+                }
+                g.tangents.resize(g.positions.len(), Vec4::ZERO);
             }
             for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
                 g.triangles.push(Triangle {

@@ -232,6 +232,7 @@ mod tests {
                 positions: p.to_vec(),
                 normals: vec![Vec3::Z; 3],
                 uvs: vec![glam::Vec2::ZERO; 3],
+                tangents: Vec::new(),
                 triangles: vec![Triangle {
                     vertices: [0, 1, 2],
                     material: 0,

@@ -2,11 +2,22 @@
 //! (Lambert diffuse, Phong `(R·L)^n` specular, 5x5 PCF shadow, local lights) and the fine
 //! albedo (base colour times texture), composed as `tonemap(albedo * lighting)`.
 //!
+//! The glTF maps beyond base colour (the trace's `SurfaceMaps`) enter here and nowhere
+//! else, each as its own cost-table block:
+//! - a **normal map** bends the normal the lighting uses (tangent space, MikkTSpace
+//!   tangents; coarse-able: multi-rate schemes sample it at their shading points);
+//! - a **metallic-roughness map** sets the Phong exponent and weight per point through the
+//!   same mapping capture applies to the factors (coarse-able);
+//! - an **occlusion map** darkens the ambient term only, as glTF prescribes for indirect
+//!   light (fine);
+//! - the **emissive** factor (times `KHR_materials_emissive_strength`) and texture add
+//!   radiance before the tone map (fine).
+//!
 //! Each function records the blocks it executes in a [`BlockSet`], so the cost model counts
 //! exactly the work the numbers came from.
 
 use glam::{Vec2, Vec3, Vec4};
-use shadetrace_formats::{LightKind, Material};
+use shadetrace_formats::{phong_from_metallic_roughness, LightKind, Material, SurfaceMaps};
 
 use crate::cost::{BlockSet, LightBlocks};
 use crate::cost_table::Block;
@@ -34,6 +45,18 @@ pub struct ShaderEnv<'a> {
     pub shadow: Option<&'a ShadowMap>,
     /// Edge-receiver hierarchy of the shadow map, built only when a scheme asks for it.
     pub receivers: Option<&'a ReceiverHierarchy>,
+    pub maps: &'a SurfaceMaps,
+}
+
+/// Where a point samples the surface maps: its texture coordinates, their screen
+/// derivatives (the texture LOD) and its interpolated tangent (xyz, bitangent sign in w;
+/// zero without a normal map).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SurfacePoint {
+    pub uv: Vec2,
+    pub duv_dx: Vec2,
+    pub duv_dy: Vec2,
+    pub tangent: Vec4,
 }
 
 /// Interpolated inputs of the coarse-able lighting.
@@ -43,16 +66,39 @@ pub struct LightingInputs {
     pub normal: Vec3,
     pub eye: Vec3,
     pub material: u32,
+    pub surface: SurfacePoint,
 }
 
-/// What every light's term at one point shares: the inputs, the material, the (possibly
-/// flipped) normal and the reflection vector.
+/// What every light's term at one point shares: the inputs, the (possibly mapped and
+/// flipped) normal, the reflection vector and the Phong parameters there.
 #[derive(Clone, Copy)]
 struct PointInputs<'a> {
     inp: &'a LightingInputs,
-    material: &'a Material,
     n: Vec3,
     r: Vec3,
+    exponent: f32,
+    strength: f32,
+}
+
+/// The fine part of a point's colour: albedo, and what the occlusion and emissive maps add.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    pub albedo: Vec4,
+    /// Linear radiance added before the tone map.
+    pub emission: Vec3,
+    /// Ambient occlusion after its strength: 1 leaves the ambient term whole.
+    pub occlusion: f32,
+}
+
+impl Surface {
+    /// A surface with albedo only (no occlusion, no emission).
+    pub fn of_albedo(albedo: Vec4) -> Surface {
+        Surface {
+            albedo,
+            emission: Vec3::ZERO,
+            occlusion: 1.0,
+        }
+    }
 }
 
 /// One light's contribution at a point: `radiance * scale * (diffuse + specular)`.
@@ -150,13 +196,33 @@ impl ShaderEnv<'_> {
     ) {
         blocks.take(Block::CoarseSetup);
         let material = &self.materials[inp.material as usize];
+        let maps = self.maps.of(inp.material);
         let v = (inp.eye - inp.position).normalize_or(Vec3::Z);
         let mut n = inp.normal.normalize_or(Vec3::Y);
+        if let Some((texture, scale)) = maps.normal {
+            blocks.take(Block::NormalMap);
+            n = self.normal_mapped(n, &inp.surface, texture, scale, log);
+        }
         if n.dot(v) < 0.0 && material.double_sided {
             n = -n;
         }
         let r = (2.0 * n.dot(v) * n - v).normalize_or(n);
-        let point = PointInputs { inp, material, n, r };
+        let (exponent, strength) = match maps.metallic_roughness {
+            None => (material.specular_exponent, material.specular_strength),
+            Some((texture, roughness, metallic)) => {
+                blocks.take(Block::MetallicRoughnessMap);
+                let s = &inp.surface;
+                let texel = self.textures[texture as usize].sample(s.uv, s.duv_dx, s.duv_dy, log);
+                phong_from_metallic_roughness(roughness * texel.y, metallic * texel.z)
+            }
+        };
+        let point = PointInputs {
+            inp,
+            n,
+            r,
+            exponent,
+            strength,
+        };
         match list {
             None => {
                 for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
@@ -182,7 +248,13 @@ impl ShaderEnv<'_> {
         flags: &mut LightBlocks,
         log: &mut AccessLog,
     ) {
-        let PointInputs { inp, material, n, r } = *point;
+        let PointInputs {
+            inp,
+            n,
+            r,
+            exponent,
+            strength,
+        } = *point;
         let light = &self.lights[k];
         match light.kind {
             LightKind::Directional { direction } => {
@@ -202,11 +274,7 @@ impl ShaderEnv<'_> {
                 // unlit side.
                 if effects.contains(Effects::SPECULAR) {
                     *flags |= LightBlocks::SPECULAR;
-                    term.specular = if lit {
-                        material.specular_strength * phong(r.dot(l), material.specular_exponent)
-                    } else {
-                        0.0
-                    };
+                    term.specular = if lit { strength * phong(r.dot(l), exponent) } else { 0.0 };
                 }
                 if effects.contains(Effects::SHADOW) && light.shadowed {
                     term.scale = match self.shadow {
@@ -258,7 +326,7 @@ impl ShaderEnv<'_> {
                 }
                 if effects.contains(Effects::SPECULAR) {
                     term.specular = if n_dot_l > 0.0 {
-                        material.specular_strength * phong(r.dot(l), material.specular_exponent)
+                        strength * phong(r.dot(l), exponent)
                     } else {
                         0.0
                     };
@@ -275,6 +343,24 @@ impl ShaderEnv<'_> {
             total += light.radiance * (t.scale * (t.diffuse + t.specular));
         }
         total
+    }
+
+    /// The tangent-space normal map's normal: the texel (in [0, 1], scaled in x and y by
+    /// `scale`) in the frame of the tangent, the bitangent `cross(n, t) * w` and `n`. A
+    /// point without a usable tangent keeps `n`.
+    fn normal_mapped(&self, n: Vec3, at: &SurfacePoint, texture: u32, scale: f32, log: &mut AccessLog) -> Vec3 {
+        let texel = self.textures[texture as usize].sample(at.uv, at.duv_dx, at.duv_dy, log);
+        let tangent = at.tangent.truncate();
+        let Some(t) = (tangent - n * n.dot(tangent)).try_normalize() else {
+            return n;
+        };
+        let b = n.cross(t) * if at.tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let m = Vec3::new(
+            (2.0 * texel.x - 1.0) * scale,
+            (2.0 * texel.y - 1.0) * scale,
+            2.0 * texel.z - 1.0,
+        );
+        (t * m.x + b * m.y + n * m.z).normalize_or(n)
     }
 
     /// Fine albedo: base colour, times the texture when the material has one.
@@ -301,6 +387,43 @@ impl ShaderEnv<'_> {
             }
         }
     }
+
+    /// The fine surface: [`ShaderEnv::albedo`], and the occlusion and emission of the
+    /// material's maps (nothing more for a material without them).
+    pub fn surface(
+        &self,
+        material: u32,
+        uv: Vec2,
+        duv_dx: Vec2,
+        duv_dy: Vec2,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Surface {
+        let mut surface = Surface::of_albedo(self.albedo(material, uv, duv_dx, duv_dy, blocks, log));
+        let maps = self.maps.of(material);
+        if let Some((texture, strength)) = maps.occlusion {
+            blocks.take(Block::OcclusionMap);
+            let ao = self.textures[texture as usize].sample(uv, duv_dx, duv_dy, log).x;
+            surface.occlusion = 1.0 + strength * (ao - 1.0);
+        }
+        let emissive = Vec3::from_array(maps.emissive);
+        if emissive != Vec3::ZERO {
+            surface.emission = match maps.emissive_texture {
+                Some(texture) => {
+                    blocks.take(Block::EmissiveTextured);
+                    emissive
+                        * self.textures[texture as usize]
+                            .sample(uv, duv_dx, duv_dy, log)
+                            .truncate()
+                }
+                None => {
+                    blocks.take(Block::EmissiveConstant);
+                    emissive
+                }
+            };
+        }
+        surface
+    }
 }
 
 /// `(R·L)^n` for the lit side, 0 behind.
@@ -312,11 +435,20 @@ fn phong(r_dot_l: f32, exponent: f32) -> f32 {
     }
 }
 
-/// Final colour: albedo times lighting, Reinhard tone-mapped to [0, 1), alpha kept. NaN
-/// (which only degenerate input could produce) becomes black rather than reaching an image.
-pub fn compose(albedo: Vec4, lighting: Vec3, blocks: &mut BlockSet) -> Vec4 {
+/// Final colour: albedo times lighting (its ambient part darkened by occlusion), plus
+/// emission, Reinhard tone-mapped to [0, 1), alpha kept. NaN (which only degenerate input
+/// could produce) becomes black rather than reaching an image. Without occlusion and
+/// emission this is exactly `tonemap(albedo * lighting)`.
+pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4 {
     blocks.take(Block::Compose);
-    let c = albedo.truncate() * lighting;
+    let albedo = surface.albedo;
+    let mut c = albedo.truncate() * lighting;
+    if surface.occlusion != 1.0 {
+        c -= albedo.truncate() * (AMBIENT * (1.0 - surface.occlusion));
+    }
+    if surface.emission != Vec3::ZERO {
+        c += surface.emission;
+    }
     let mapped = c / (Vec3::ONE + c);
     let mapped = Vec3::new(
         finite_or_zero(mapped.x),

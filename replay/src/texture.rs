@@ -53,9 +53,13 @@ pub fn srgb_to_linear(c: u8) -> f32 {
 
 impl MipTexture {
     /// Builds the full mip chain (2x2 box filter in linear space) starting at `base_line`;
-    /// returns the texture and the first free line after it.
-    pub fn build(texture: &Texture, base_line: u64) -> (MipTexture, u64) {
-        let lut: Vec<f32> = (0..=255u8).map(srgb_to_linear).collect();
+    /// returns the texture and the first free line after it. Colour textures are sRGB;
+    /// data textures (`srgb` false: normal, metallic-roughness, occlusion maps) are read as
+    /// they are stored.
+    pub fn build(texture: &Texture, base_line: u64, srgb: bool) -> (MipTexture, u64) {
+        let lut: Vec<f32> = (0..=255u8)
+            .map(|c| if srgb { srgb_to_linear(c) } else { f32::from(c) / 255.0 })
+            .collect();
         let base: Vec<Vec4> = texture
             .rgba8
             .chunks_exact(4)
@@ -189,7 +193,7 @@ mod tests {
 
     #[test]
     fn mip_chain_and_lines() {
-        let (m, end) = MipTexture::build(&tex(20, 12), 100);
+        let (m, end) = MipTexture::build(&tex(20, 12), 100, true);
         let dims: Vec<(u32, u32)> = m.levels.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(dims, [(20, 12), (10, 6), (5, 3), (2, 1), (1, 1)]);
         assert_eq!(m.levels[1].base_line, 100 + 3 * 2);
@@ -209,7 +213,7 @@ mod tests {
 
     #[test]
     fn nan_uv_does_not_panic() {
-        let (m, _) = MipTexture::build(&tex(8, 8), 0);
+        let (m, _) = MipTexture::build(&tex(8, 8), 0, true);
         let mut log = AccessLog::new();
         let v = m.sample(Vec2::NAN, Vec2::NAN, Vec2::ZERO, &mut log);
         assert!(v.is_finite(), "{v}");

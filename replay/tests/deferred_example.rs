@@ -12,7 +12,7 @@ use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
     Accounting, Passes, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext,
 };
-use shadetrace_replay::shader::{compose, LightingInputs};
+use shadetrace_replay::shader::{compose, LightingInputs, SurfacePoint};
 use shadetrace_replay::{load_trace, ReplayOptions};
 
 struct DeferredPerPixel;
@@ -54,12 +54,18 @@ impl DeferredJob {
             normal: lane.normal,
             eye: ctx.eye,
             material,
+            surface: SurfacePoint {
+                uv: lane.uv,
+                duv_dx,
+                duv_dy,
+                tangent: lane.tangent,
+            },
         };
         let lighting = ctx.env.lighting(&inputs, &mut self.blocks, acc.log);
-        let albedo = ctx
+        let surface = ctx
             .env
-            .albedo(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
-        let color = compose(albedo, lighting, &mut self.blocks);
+            .surface(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
+        let color = compose(&surface, lighting, &mut self.blocks);
         self.packer.lane(
             &self.blocks,
             true,

@@ -85,6 +85,7 @@ pub fn run(args: Args) -> Result<(), String> {
         ChunkKind::Materials,
         ChunkKind::Textures,
         ChunkKind::Lights,
+        ChunkKind::SurfaceMaps,
         ChunkKind::Frame,
     ];
     let mut unknown: Vec<ChunkKind> = reader
@@ -97,6 +98,9 @@ pub fn run(args: Args) -> Result<(), String> {
     let (mut raw_total, mut packed_total) = (0u64, 0u64);
     for kind in kinds.into_iter().chain(unknown) {
         let chunks: Vec<_> = reader.chunks().iter().filter(|c| c.kind == kind).collect();
+        if chunks.is_empty() && kind == ChunkKind::SurfaceMaps {
+            continue; // optional: most traces have none
+        }
         let raw: u64 = chunks.iter().map(|c| c.raw_len).sum();
         let packed: u64 = chunks.iter().map(|c| c.packed_len).sum();
         raw_total += raw;

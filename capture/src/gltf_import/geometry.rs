@@ -2,7 +2,7 @@
 //! generating or repairing normals, applying the texture transform, and placing them in
 //! world space.
 
-use glam::{Mat2, Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat2, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::json::{self, mesh::Semantic, validation::Checked};
 
 use super::data::Reader;
@@ -110,13 +110,17 @@ pub(super) struct Triangles {
     pub uvs: Vec<Vec2>,
     /// Joint influences; empty unless the primitive is skinned.
     pub influences: Vec<Influence>,
+    /// Unit tangents with the bitangent's sign in w; empty unless a normal map needs them.
+    pub tangents: Vec<Vec4>,
     /// Counter-clockwise triangles.
     pub indices: Vec<u32>,
 }
 
 impl Triangles {
     /// Reads a triangle primitive. `label` names it in messages; `uv` says which UV set
-    /// the material samples; `skinned` asks for `JOINTS_0`/`WEIGHTS_0`.
+    /// the material samples; `skinned` asks for `JOINTS_0`/`WEIGHTS_0`, `tangents` for
+    /// tangents (the file's `TANGENT`, or MikkTSpace's).
+    #[allow(clippy::too_many_arguments)]
     pub fn read(
         reader: &Reader,
         primitive: &json::mesh::Primitive,
@@ -124,6 +128,7 @@ impl Triangles {
         label: &str,
         uv: Option<UvSource>,
         skinned: bool,
+        tangents: bool,
         warnings: &mut Warnings,
     ) -> Fallible<Triangles> {
         let attribute = |semantic: Semantic| primitive.attributes.get(&Checked::Valid(semantic)).copied();
@@ -205,11 +210,21 @@ impl Triangles {
             None => (0..count_u32).collect(),
         };
 
+        // glTF: without normals, a file's tangents are to be ignored.
+        let file_tangents = match (attribute(Semantic::Tangents), &normals) {
+            (Some(a), Some(_)) if tangents => {
+                let raw = reader.vec4s(a, &format!("TANGENT of {label}"))?;
+                same_count("TANGENT", raw.len())?;
+                Some(raw)
+            }
+            _ => None,
+        };
         let mut triangles = Triangles {
             positions,
             normals: normals.clone().unwrap_or_default(),
             uvs,
             influences,
+            tangents: Vec::new(),
             indices: triangle_list(mode, &vertices),
         };
         if normals.is_none() {
@@ -221,6 +236,12 @@ impl Triangles {
             triangles.normals = area_weighted_normals(&triangles.positions, &triangles.indices);
         }
         repair_normals(&mut triangles.normals, &triangles.positions, &triangles.indices);
+        if tangents {
+            match file_tangents {
+                Some(raw) => triangles.tangents = super::tangents::from_file(&raw, &triangles.normals),
+                None => super::tangents::generate(&mut triangles),
+            }
+        }
         Ok(triangles)
     }
 
@@ -236,7 +257,22 @@ impl Triangles {
         self.normals = expand(&self.normals, &self.indices);
         self.uvs = expand(&self.uvs, &self.indices);
         self.influences = expand(&self.influences, &self.indices);
+        self.tangents = expand(&self.tangents, &self.indices);
         self.indices = (0..self.indices.len() as u32).collect();
+    }
+
+    /// Appends a copy of vertex `v` (every attribute but the tangent, which the caller
+    /// gives the copy).
+    pub fn duplicate_vertex(&mut self, v: u32) {
+        let v = v as usize;
+        self.positions.push(self.positions[v]);
+        self.normals.push(self.normals[v]);
+        if !self.uvs.is_empty() {
+            self.uvs.push(self.uvs[v]);
+        }
+        if !self.influences.is_empty() {
+            self.influences.push(self.influences[v]);
+        }
     }
 
     /// Moves the triangles to world space with `world`.
@@ -250,6 +286,7 @@ impl Triangles {
         }
         self.keep_front_faces(world);
         repair_normals(&mut self.normals, &self.positions, &self.indices);
+        super::tangents::transform(&mut self.tangents, &self.normals, world);
     }
 
     /// Reverses the winding when `world` mirrors, so that front faces stay

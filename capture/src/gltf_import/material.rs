@@ -1,8 +1,10 @@
-//! glTF materials to shadetrace's Phong materials, and their base-colour textures to RGBA8.
+//! glTF materials to shadetrace's Phong materials, their base-colour textures to RGBA8,
+//! and their other maps (normal, metallic-roughness, occlusion, emissive) to the trace's
+//! surface maps.
 //!
-//! Only materials used by an imported primitive, and only their base-colour textures, are
-//! converted (in order of first use): normal, occlusion and metallic-roughness maps are
-//! never decoded, so a scene pays neither time nor errors for images it cannot use.
+//! Only materials used by an imported primitive, and only the textures they sample on the
+//! base colour's UVs, are converted (in order of first use), so a scene pays neither time
+//! nor errors for images it cannot use.
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -14,41 +16,15 @@ use image::{imageops::FilterType, DynamicImage, GenericImageView, ImageDecoder, 
 
 /// Largest image capture decodes, as RGBA8 bytes (8192 x 8192).
 const MAX_DECODED_IMAGE_BYTES: u64 = 256 << 20;
-use shadetrace_formats::{AlphaMode, Material, Texture, Wrap};
+use gltf::json::extensions::texture::TextureTransform;
+use shadetrace_formats::{
+    phong_from_metallic_roughness, AlphaMode, Material, MaterialMaps, SurfaceMaps, Texture, Wrap,
+};
 
 use super::basisu;
 use super::data::{self, Reader};
 use super::geometry::{UvSource, UvTransform};
 use super::{input, unsupported, valid, Fallible};
-
-/// Specular exponents are clamped to this range (see [`phong_from_metallic_roughness`]).
-const MIN_EXPONENT: f32 = 1.0;
-const MAX_EXPONENT: f32 = 4096.0;
-/// Smallest GGX width kept, so that a roughness of 0 gives a finite exponent.
-const MIN_ALPHA: f32 = 1e-3;
-/// Fresnel reflectance at normal incidence of dielectrics (glTF's metallic-roughness model).
-const DIELECTRIC_F0: f32 = 0.04;
-
-/// Maps glTF metallic-roughness factors to the Phong parameters of shadetrace's shader,
-/// returning `(specular_exponent, specular_strength)`.
-///
-/// Roughness `r` is perceptual; the microfacet (GGX) width is `alpha = max(r², 1e-3)`. A
-/// Blinn-Phong lobe with exponent `nb = 2 / alpha² - 2` has the same width (Walter et al.
-/// 2007), and a Phong `(R·L)^n` lobe matches a Blinn-Phong one for `n ≈ nb / 4` (the half
-/// vector's angle to the normal is about half the reflection vector's angle to the
-/// light), so `n = clamp(nb / 4, 1, 4096)`. The specular strength is the Fresnel
-/// reflectance at normal incidence, 0.04 for dielectrics and 1 for metals, blended by
-/// metallic `m`: `0.04 (1 - m) + m`. Factors are clamped to [0, 1]; metallic-roughness
-/// *textures* are not sampled.
-pub fn phong_from_metallic_roughness(roughness: f32, metallic: f32) -> (f32, f32) {
-    let r = roughness.clamp(0.0, 1.0);
-    let m = metallic.clamp(0.0, 1.0);
-    let alpha = (r * r).max(MIN_ALPHA);
-    let blinn = 2.0 / (alpha * alpha) - 2.0;
-    let exponent = (blinn / 4.0).clamp(MIN_EXPONENT, MAX_EXPONENT);
-    let strength = DIELECTRIC_F0 * (1.0 - m) + m;
-    (exponent, strength)
-}
 
 /// The glTF default material (spec §3.9.6): white, fully metallic, fully rough, opaque.
 fn default_material() -> Material {
@@ -74,11 +50,30 @@ pub(super) struct Materials<'a> {
     by_file_index: BTreeMap<Option<usize>, u32>,
     materials: Vec<Material>,
     uv_sources: Vec<Option<UvSource>>,
-    /// File texture to output index.
-    texture_by_file_index: BTreeMap<usize, u32>,
+    /// Each output material's maps beyond base colour.
+    maps: Vec<MaterialMaps>,
+    /// File texture, and whether it is decoded as data (not colour), to output index.
+    texture_by_file_index: BTreeMap<(usize, bool), u32>,
     textures: Vec<Texture>,
-    /// One line per material whose texture maps other than base colour are not used.
+    /// One line per material with a texture map capture cannot use, naming it and why.
     pub dropped_maps: Vec<String>,
+}
+
+/// The material's `KHR_texture_transform`, as a UV source for texture coordinate `set`.
+fn uv_source(set: u32, transform: Option<&TextureTransform>) -> UvSource {
+    UvSource {
+        set: transform.and_then(|t| t.tex_coord).unwrap_or(set),
+        transform: transform.map_or(UvTransform::IDENTITY, |t| UvTransform {
+            offset: Vec2::from_array(t.offset.0),
+            rotation: t.rotation.0,
+            scale: Vec2::from_array(t.scale.0),
+        }),
+    }
+}
+
+/// The transform of a normal or occlusion texture, which the `gltf` crate keeps unparsed.
+fn unparsed_transform(transform: Option<&json::Value>) -> Option<TextureTransform> {
+    transform.and_then(|t| json::deserialize::from_value(t.clone()).ok())
 }
 
 impl<'a> Materials<'a> {
@@ -91,6 +86,7 @@ impl<'a> Materials<'a> {
             by_file_index: BTreeMap::new(),
             materials: Vec::new(),
             uv_sources: Vec::new(),
+            maps: Vec::new(),
             texture_by_file_index: BTreeMap::new(),
             textures: Vec::new(),
             dropped_maps: Vec::new(),
@@ -104,22 +100,135 @@ impl<'a> Materials<'a> {
         if let Some(&index) = self.by_file_index.get(&key) {
             return Ok((index, self.uv_sources[index as usize]));
         }
-        let (converted, uv) = match key {
+        let (converted, uv, maps) = match key {
             Some(i) => self.convert(i)?,
-            None => (default_material(), None),
+            None => (default_material(), None, MaterialMaps::NONE),
         };
         let index = self.materials.len() as u32;
         self.materials.push(converted);
         self.uv_sources.push(uv);
+        self.maps.push(maps);
         self.by_file_index.insert(key, index);
         Ok((index, uv))
     }
 
-    pub fn into_parts(self) -> (Vec<Material>, Vec<Texture>) {
-        (self.materials, self.textures)
+    /// Whether output material `m` has a normal map (its meshes then need tangents).
+    pub fn has_normal_map(&self, m: u32) -> bool {
+        self.maps.get(m as usize).is_some_and(|maps| maps.normal.is_some())
     }
 
-    fn convert(&mut self, index: usize) -> Fallible<(Material, Option<UvSource>)> {
+    /// Drops output material `m`'s normal map (a mesh using it cannot carry tangents).
+    pub fn drop_normal_map(&mut self, m: u32, why: &str) {
+        if let Some(maps) = self.maps.get_mut(m as usize).filter(|maps| maps.normal.is_some()) {
+            maps.normal = None;
+            let name = &self.materials[m as usize].name;
+            self.dropped_maps
+                .push(format!("material {name}: normal map ignored ({why})"));
+        }
+    }
+
+    /// The materials, the textures, and the surface maps (tangents left for the caller).
+    pub fn into_parts(self) -> (Vec<Material>, Vec<Texture>, SurfaceMaps) {
+        let textures = self.texture_by_file_index.iter();
+        let linear_textures = textures.filter(|((_, linear), _)| *linear).map(|(_, &t)| t).collect();
+        let maps = SurfaceMaps {
+            materials: self.maps,
+            tangents: Vec::new(),
+            linear_textures,
+        };
+        (self.materials, self.textures, maps)
+    }
+
+    /// The maps beyond base colour that share the base colour's UVs (`uv`; the first map's
+    /// when there is no base-colour texture), decoded; the others are named in
+    /// `dropped_maps`.
+    fn convert_maps(
+        &mut self,
+        what: &str,
+        material: &json::Material,
+        uv: &mut Option<UvSource>,
+    ) -> Fallible<MaterialMaps> {
+        let pbr = &material.pbr_metallic_roughness;
+        let transform_of =
+            |info: &json::texture::Info| info.extensions.as_ref().and_then(|e| e.texture_transform.clone());
+        // (map, texture, UV source, decoded as data)
+        let candidates = [
+            pbr.metallic_roughness_texture.as_ref().map(|i| {
+                (
+                    "metallic-roughness",
+                    i.index.value(),
+                    uv_source(i.tex_coord, transform_of(i).as_ref()),
+                    true,
+                )
+            }),
+            material.normal_texture.as_ref().map(|n| {
+                let t = n
+                    .extensions
+                    .as_ref()
+                    .and_then(|e| unparsed_transform(e.others.get("KHR_texture_transform")));
+                ("normal", n.index.value(), uv_source(n.tex_coord, t.as_ref()), true)
+            }),
+            material.occlusion_texture.as_ref().map(|o| {
+                let t = o
+                    .extensions
+                    .as_ref()
+                    .and_then(|e| unparsed_transform(e.others.get("KHR_texture_transform")));
+                ("occlusion", o.index.value(), uv_source(o.tex_coord, t.as_ref()), true)
+            }),
+            material.emissive_texture.as_ref().map(|i| {
+                (
+                    "emissive",
+                    i.index.value(),
+                    uv_source(i.tex_coord, transform_of(i).as_ref()),
+                    false,
+                )
+            }),
+        ];
+        let mut maps = MaterialMaps::NONE;
+        let mut dropped = Vec::new();
+        for (map, file_texture, source, linear) in candidates.into_iter().flatten() {
+            let shared = *uv.get_or_insert(source);
+            if shared != source {
+                dropped.push(format!(
+                    "{map} (its UVs are TEXCOORD_{} or transformed differently from the base colour's)",
+                    source.set
+                ));
+                continue;
+            }
+            let t = self.texture(file_texture, linear)?;
+            match map {
+                "metallic-roughness" => {
+                    maps.metallic_roughness = Some((t, pbr.roughness_factor.0, pbr.metallic_factor.0))
+                }
+                "normal" => maps.normal = material.normal_texture.as_ref().map(|n| (t, n.scale)),
+                "occlusion" => maps.occlusion = material.occlusion_texture.as_ref().map(|o| (t, o.strength.0)),
+                _ => maps.emissive_texture = Some(t),
+            }
+        }
+        let strength = material
+            .extensions
+            .as_ref()
+            .and_then(|e| e.emissive_strength.as_ref())
+            .map_or(1.0, |s| s.emissive_strength.0);
+        maps.emissive = material.emissive_factor.0.map(|c| c * strength);
+        if maps.emissive == [0.0; 3] {
+            maps.emissive_texture = None; // black times any texture
+        }
+        if !dropped.is_empty() {
+            let name = material.name.as_deref().map_or(String::new(), |n| format!(" ({n})"));
+            self.dropped_maps
+                .push(format!("{what}{name}: {} map ignored", dropped.join(", ")));
+        }
+        if !(maps.emissive.iter().all(|c| c.is_finite())
+            && maps.normal.is_none_or(|n| n.1.is_finite())
+            && maps.occlusion.is_none_or(|o| o.1.is_finite()))
+        {
+            return Err(input(format!("{what} has non-finite map parameters")));
+        }
+        Ok(maps)
+    }
+
+    fn convert(&mut self, index: usize) -> Fallible<(Material, Option<UvSource>, MaterialMaps)> {
         let what = format!("material {index}");
         let material = self
             .root
@@ -127,38 +236,15 @@ impl<'a> Materials<'a> {
             .get(index)
             .ok_or_else(|| input(format!("{what} does not exist")))?;
         let pbr = &material.pbr_metallic_roughness;
-        let dropped: Vec<&str> = [
-            ("metallic-roughness", pbr.metallic_roughness_texture.is_some()),
-            ("normal", material.normal_texture.is_some()),
-            ("occlusion", material.occlusion_texture.is_some()),
-            ("emissive", material.emissive_texture.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(map, present)| present.then_some(map))
-        .collect();
-        if !dropped.is_empty() {
-            let name = material.name.as_deref().map_or(String::new(), |n| format!(" ({n})"));
-            self.dropped_maps.push(format!(
-                "{what}{name}: {} texture map(s) ignored (only base colour is captured)",
-                dropped.join(", ")
-            ));
-        }
-        let (base_color_texture, uv) = match &pbr.base_color_texture {
+        let (base_color_texture, mut uv) = match &pbr.base_color_texture {
             None => (None, None),
             Some(info) => {
-                let texture = self.texture(info.index.value())?;
+                let texture = self.texture(info.index.value(), false)?;
                 let transform = info.extensions.as_ref().and_then(|e| e.texture_transform.as_ref());
-                let source = UvSource {
-                    set: transform.and_then(|t| t.tex_coord).unwrap_or(info.tex_coord),
-                    transform: transform.map_or(UvTransform::IDENTITY, |t| UvTransform {
-                        offset: Vec2::from_array(t.offset.0),
-                        rotation: t.rotation.0,
-                        scale: Vec2::from_array(t.scale.0),
-                    }),
-                };
-                (Some(texture), Some(source))
+                (Some(texture), Some(uv_source(info.tex_coord, transform)))
             }
         };
+        let maps = self.convert_maps(&what, material, &mut uv)?;
         let alpha = match valid(&material.alpha_mode, &what, "alphaMode")? {
             JsonAlphaMode::Opaque => AlphaMode::Opaque,
             JsonAlphaMode::Mask => AlphaMode::Mask {
@@ -191,12 +277,13 @@ impl<'a> Materials<'a> {
             alpha,
             double_sided: material.double_sided,
         };
-        Ok((converted, uv))
+        Ok((converted, uv, maps))
     }
 
-    /// Output index of file texture `index`, decoding its image on first use.
-    fn texture(&mut self, index: usize) -> Fallible<u32> {
-        if let Some(&t) = self.texture_by_file_index.get(&index) {
+    /// Output index of file texture `index`, decoding its image on first use; `linear`
+    /// marks a data texture (a file texture used both ways is decoded once for each).
+    fn texture(&mut self, index: usize, linear: bool) -> Fallible<u32> {
+        if let Some(&t) = self.texture_by_file_index.get(&(index, linear)) {
             return Ok(t);
         }
         let what = format!("texture {index}");
@@ -255,7 +342,7 @@ impl<'a> Materials<'a> {
             rgba8: pixels.into_raw(),
         });
         let t = (self.textures.len() - 1) as u32;
-        self.texture_by_file_index.insert(index, t);
+        self.texture_by_file_index.insert((index, linear), t);
         Ok(t)
     }
 
@@ -357,7 +444,7 @@ mod tests {
         // r = 0.5: alpha 0.25, Blinn 30, Phong 7.5.
         assert_eq!(phong_from_metallic_roughness(0.5, 0.0), (7.5, 0.04));
         assert_eq!(phong_from_metallic_roughness(1.0, 1.0), (1.0, 1.0));
-        assert_eq!(phong_from_metallic_roughness(0.0, 0.5).0, MAX_EXPONENT);
+        assert_eq!(phong_from_metallic_roughness(0.0, 0.5).0, 4096.0);
         let (_, half) = phong_from_metallic_roughness(0.3, 0.5);
         assert!((half - 0.52).abs() < 1e-6);
     }

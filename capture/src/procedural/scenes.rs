@@ -63,6 +63,7 @@ pub fn floor() -> Built {
                 checker("box-checker", 256, 4, [180, 60, 50], [230, 220, 200], 0.3, 2),
             ],
             lights: vec![sun(Vec3::new(-0.5, -1.0, -0.3))],
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::ZERO,
@@ -112,6 +113,7 @@ pub fn spheres(subdiv: Option<u32>) -> Built {
                 checker("sphere-checker", 512, 12, [60, 110, 200], [230, 200, 90], 0.2, 4),
             ],
             lights: vec![sun(Vec3::new(-0.4, -1.0, -0.6))],
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::new(0.0, 0.5, 0.0),
@@ -171,6 +173,7 @@ pub fn hairball() -> Built {
             materials: vec![hair_material, material("floor", [0.6, 0.6, 0.6, 1.0], None, 4.0, 0.05)],
             textures: vec![],
             lights: vec![sun(Vec3::new(-0.3, -1.0, -0.5))],
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::new(0.0, 1.0, 0.0),
@@ -229,6 +232,7 @@ pub fn depth_stack() -> Built {
                 checker("fence-grain", 256, 2, [220, 200, 170], [170, 140, 110], 0.6, 6),
             ],
             lights: vec![sun(Vec3::new(0.3, -0.8, -0.6))],
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::new(0.0, 1.4, -2.0),
@@ -324,6 +328,7 @@ pub fn arena() -> Built {
                 checker("dragon-scales", 256, 16, [120, 200, 110], [40, 110, 60], 0.5, 14),
             ],
             lights: vec![sun(Vec3::new(-0.45, -1.0, -0.35))],
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::ZERO,
@@ -408,6 +413,7 @@ pub fn light_room(count: Option<u32>) -> Built {
             ],
             textures: vec![],
             lights,
+            surface_maps: Default::default(),
         },
         orbit: Orbit {
             center: Vec3::new(0.0, 1.5, 0.0),

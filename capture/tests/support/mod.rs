@@ -277,6 +277,79 @@ pub fn write_quantized_gltf(dir: &Path) -> PathBuf {
     write_json(dir, "quantized.gltf", &doc)
 }
 
+/// Which maps [`write_surface_maps_gltf`] gives its material.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MapsSpec {
+    /// The normal map's (uniform) texel.
+    pub normal: Option<[u8; 4]>,
+    pub metallic_roughness: bool,
+    pub occlusion: bool,
+    pub emissive: bool,
+    /// The occlusion map reads TEXCOORD_1 (which capture cannot use).
+    pub occlusion_on_second_uv_set: bool,
+}
+
+/// The texels of the surface-map fixture's uniform 2x2 maps.
+pub const METALLIC_ROUGHNESS_TEXEL: [u8; 4] = [0, 64, 255, 255];
+pub const OCCLUSION_TEXEL: [u8; 4] = [64, 64, 64, 255];
+pub const EMISSIVE_TEXEL: [u8; 4] = [255, 0, 0, 255];
+pub const EMISSIVE_FACTOR: [f32; 3] = [1.0, 0.5, 1.0];
+pub const EMISSIVE_STRENGTH: f32 = 2.0;
+
+/// [`write_textured_gltf`]'s quad with the maps `spec` asks for, each a uniform 2x2 PNG in a
+/// `data:` URI sampled with the base colour's texture transform (and `KHR_materials_emissive_strength`
+/// on the emissive factor). Normal scale 0.5, occlusion strength 0.75.
+pub fn write_surface_maps_gltf(dir: &Path, spec: MapsSpec) -> PathBuf {
+    let mut bin = Bin::default();
+    let mut doc = textured_scene(&mut bin, json!({ "name": "checker", "uri": "checker.png" }));
+    std::fs::write(dir.join("checker.png"), png_bytes(&checker_image())).expect("write png");
+    let transform = json!({ "KHR_texture_transform": {
+        "offset": UV_OFFSET, "rotation": UV_ROTATION, "scale": UV_SCALE
+    } });
+    let add_map = |doc: &mut Value, texel: [u8; 4]| {
+        let image = image::RgbaImage::from_pixel(2, 2, image::Rgba(texel));
+        let images = doc["images"].as_array_mut().unwrap();
+        images.push(json!({ "uri": data_uri("image/png", &png_bytes(&image)) }));
+        let source = images.len() - 1;
+        let textures = doc["textures"].as_array_mut().unwrap();
+        textures.push(json!({ "source": source }));
+        textures.len() - 1
+    };
+    let mut m = doc["materials"][0].clone();
+    if let Some(texel) = spec.normal {
+        let t = add_map(&mut doc, texel);
+        m["normalTexture"] = json!({ "index": t, "scale": 0.5, "extensions": transform });
+    }
+    if spec.metallic_roughness {
+        let t = add_map(&mut doc, METALLIC_ROUGHNESS_TEXEL);
+        m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({ "index": t, "extensions": transform });
+    }
+    if spec.occlusion {
+        let t = add_map(&mut doc, OCCLUSION_TEXEL);
+        m["occlusionTexture"] = json!({ "index": t, "strength": 0.75, "extensions": transform });
+        if spec.occlusion_on_second_uv_set {
+            m["occlusionTexture"]["texCoord"] = json!(1);
+        }
+    }
+    if spec.emissive {
+        let t = add_map(&mut doc, EMISSIVE_TEXEL);
+        m["emissiveTexture"] = json!({ "index": t, "extensions": transform });
+        m["emissiveFactor"] = json!(EMISSIVE_FACTOR);
+        m["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": EMISSIVE_STRENGTH } });
+    }
+    // Opaque, so that every scheme can run on the fixture.
+    m["alphaMode"] = json!("OPAQUE");
+    doc["materials"][0] = m;
+    doc["extensionsUsed"] = json!([
+        "KHR_texture_transform",
+        "KHR_lights_punctual",
+        "KHR_materials_emissive_strength"
+    ]);
+    std::fs::write(dir.join("quad.bin"), &bin.bytes).expect("write bin");
+    bin.finish(&mut doc, Some("quad.bin".to_string()));
+    write_json(dir, "surface_maps.gltf", &doc)
+}
+
 /// Vertices per side of [`write_wavy_grid_glb`]'s grid.
 pub const GRID_SIDE: u16 = 17;
 

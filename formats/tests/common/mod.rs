@@ -98,7 +98,28 @@ pub fn sample_scene() -> Scene {
                 shadowed: false,
             },
         ],
+        surface_maps: SurfaceMaps::default(),
     }
+}
+
+/// [`sample_scene`] with surface maps: a normal map and emission on the textured material
+/// (its static mesh gets tangents), the texture marked as data.
+pub fn sample_scene_with_maps() -> Scene {
+    let mut scene = sample_scene();
+    scene.surface_maps = SurfaceMaps {
+        materials: vec![
+            MaterialMaps {
+                normal: Some((0, 0.5)),
+                emissive: [1.0, 0.5, 0.0],
+                emissive_texture: Some(0),
+                ..MaterialMaps::NONE
+            },
+            MaterialMaps::NONE,
+        ],
+        tangents: vec![vec![glam::Vec4::new(1.0, 0.0, 0.0, -1.0); 4], vec![], vec![]],
+        linear_textures: vec![0],
+    };
+    scene
 }
 
 pub fn sample_frame(index: u32) -> Frame {

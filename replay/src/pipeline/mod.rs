@@ -67,11 +67,13 @@ type ShadowKey = (Option<u32>, u32);
 impl PreparedScene {
     pub fn new(scene: Scene) -> PreparedScene {
         let mut line = 0;
+        let linear = &scene.surface_maps.linear_textures;
         let textures = scene
             .textures
             .iter()
-            .map(|t| {
-                let (m, next) = MipTexture::build(t, line);
+            .enumerate()
+            .map(|(i, t)| {
+                let (m, next) = MipTexture::build(t, line, !linear.contains(&(i as u32)));
                 line = next;
                 m
             })
@@ -167,6 +169,7 @@ pub fn run_frame(
         lights: &prepared.lights,
         shadow: shadow.as_deref(),
         receivers: receivers.as_ref(),
+        maps: &prepared.scene.surface_maps,
     };
     // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
     let declared = scheme.view_pass();

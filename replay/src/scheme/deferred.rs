@@ -25,21 +25,23 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 use super::distinct_triangles;
 use super::light_lists::{
     charge_culling, depth_bounds, list_bytes, slice_depths, slice_of, LightCuller, CLUSTER_SLICES, CLUSTER_TILE,
     LIGHT_LISTS, TILED_TILE,
 };
-use super::{Accounting, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads};
+use super::{
+    Accounting, LaneAttributes, Passes, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, VisibleQuads,
+};
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::cost_table::Block;
 use crate::memory::{AccessLog, RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::VERTEX_BYTES;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
-use crate::shader::{compose, LightingInputs};
+use crate::shader::{compose, LightingInputs, Surface, SurfacePoint};
 use crate::srgb::linear_to_srgb8;
 use crate::texture::srgb_to_linear;
 
@@ -296,22 +298,26 @@ impl DeferredJob {
                     let material = unit.triangle.material;
                     let own = unit.attributes(x, y);
                     self.blocks.clear();
-                    let (normal, albedo) = match self.target {
+                    // The G-buffer has no channels for surface maps (the registry refuses
+                    // traces with them); the visibility buffer samples them as forward does.
+                    let (normal, surface, at) = match self.target {
                         Target::GBuffer => {
                             self.blocks.take(Block::GBufferRead);
                             let g = gbuffer[i];
-                            (octahedral_decode(g.normal), decode_albedo(g.albedo))
+                            let albedo = Surface::of_albedo(decode_albedo(g.albedo));
+                            (octahedral_decode(g.normal), albedo, SurfacePoint::default())
                         }
-                        Target::Visibility => (
-                            own.normal,
-                            refetched_albedo(&unit, own.uv, (x, y), &mut self.blocks, acc.log),
-                        ),
+                        Target::Visibility => {
+                            let (surface, at) = refetched_surface(&unit, &own, (x, y), &mut self.blocks, acc.log);
+                            (own.normal, surface, at)
+                        }
                     };
                     let inputs = LightingInputs {
                         position: own.position,
                         normal,
                         eye: ctx.eye,
                         material,
+                        surface: at,
                     };
                     let lighting = match self.lists {
                         Lists::None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
@@ -332,7 +338,7 @@ impl DeferredJob {
                             ctx.env.lighting_listed(&inputs, list, &mut self.blocks, acc.log)
                         }
                     };
-                    let colour = compose(albedo, lighting, &mut self.blocks);
+                    let colour = compose(&surface, lighting, &mut self.blocks);
                     let stage = acc.cost.stage_mut(FINE);
                     self.packer
                         .lane(&self.blocks, true, unit.pixel_id(x, y), stage, acc.heat);
@@ -369,23 +375,33 @@ impl DeferredJob {
     }
 }
 
-/// The visibility buffer's albedo at pixel `(x, y)` of `unit`'s triangle, whose uv there is
-/// `uv`: the triangle's three vertices fetched again, its uv at the pixel's quad (for the
-/// texture's derivatives, as forward's quads give them), the texture sampled.
-pub(super) fn refetched_albedo(
+/// The visibility buffer's surface at pixel `(x, y)` of `unit`'s triangle, whose
+/// attributes there are `own`: the triangle's three vertices fetched again, its uv at the
+/// pixel's quad (for the textures' derivatives, as forward's quads give them), the textures
+/// sampled. Also returns where the lighting samples the surface maps.
+pub(super) fn refetched_surface(
     unit: &UnitContext,
-    uv: Vec2,
+    own: &LaneAttributes,
     (x, y): (u32, u32),
     blocks: &mut BlockSet,
     log: &mut AccessLog,
-) -> Vec4 {
+) -> (Surface, SurfacePoint) {
     blocks.take(Block::VisibilityInterpolate);
     for v in unit.triangle.vertices {
         log.touch(Stream::TriangleData, u64::from(v) * VERTEX_BYTES / LINE_BYTES, false);
     }
     let (qx, qy) = (x & !1, y & !1);
     let [a, b, c] = [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
-    unit.env.albedo(unit.triangle.material, uv, b - a, c - a, blocks, log)
+    let at = SurfacePoint {
+        uv: own.uv,
+        duv_dx: b - a,
+        duv_dy: c - a,
+        tangent: own.tangent,
+    };
+    let surface = unit
+        .env
+        .surface(unit.triangle.material, own.uv, at.duv_dx, at.duv_dy, blocks, log);
+    (surface, at)
 }
 
 /// The world-to-clip matrix of the tile's view.

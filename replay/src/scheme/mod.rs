@@ -78,6 +78,8 @@ pub struct LaneAttributes {
     pub position: Vec3,
     pub normal: Vec3,
     pub uv: Vec2,
+    /// Zero when the scene has no normal map.
+    pub tangent: Vec4,
 }
 
 impl UnitContext<'_> {
@@ -89,13 +91,22 @@ impl UnitContext<'_> {
 
     /// Attributes at a fixed-point screen position (8 sub-pixel bits).
     pub fn attributes_at(&self, px: i64, py: i64) -> LaneAttributes {
-        let b = self.setup.original_bary(self.setup.edges(px, py));
+        self.interpolate(self.setup.original_bary(self.setup.edges(px, py)))
+    }
+
+    /// Attributes at barycentric coordinates `b` of the triangle's vertices.
+    pub fn interpolate(&self, b: Vec3) -> LaneAttributes {
         let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
         let g = self.geometry;
         LaneAttributes {
             position: g.positions[i] * b.x + g.positions[j] * b.y + g.positions[k] * b.z,
             normal: g.normals[i] * b.x + g.normals[j] * b.y + g.normals[k] * b.z,
             uv: g.uvs[i] * b.x + g.uvs[j] * b.y + g.uvs[k] * b.z,
+            tangent: if g.tangents.is_empty() {
+                Vec4::ZERO
+            } else {
+                g.tangents[i] * b.x + g.tangents[j] * b.y + g.tangents[k] * b.z
+            },
         }
     }
 

@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, LightingInputs};
+use crate::shader::{compose, LightingInputs, SurfacePoint};
 
 pub struct PerPixel;
 
@@ -93,6 +93,12 @@ impl SchemeJob for PerPixelJob {
                     normal: lane.normal,
                     eye: ctx.eye,
                     material,
+                    surface: SurfacePoint {
+                        uv: lane.uv,
+                        duv_dx,
+                        duv_dy,
+                        tangent: lane.tangent,
+                    },
                 };
                 let lighting = match &self.lists {
                     None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
@@ -102,10 +108,10 @@ impl SchemeJob for PerPixelJob {
                         ctx.env.lighting_listed(&inputs, list, &mut self.blocks, acc.log)
                     }
                 };
-                let albedo = ctx
+                let surface = ctx
                     .env
-                    .albedo(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
-                out[l] = compose(albedo, lighting, &mut self.blocks);
+                    .surface(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
+                out[l] = compose(&surface, lighting, &mut self.blocks);
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 let useful = quad.lanes & (1 << l) != 0;
                 self.packer

@@ -97,7 +97,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
                 lists: Lists::None,
             })
         },
-        supports: opaque_only,
+        supports: gbuffer_without_maps,
     },
     SchemeEntry {
         name: "tiled",
@@ -111,7 +111,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
                 lists: Lists::Tiled,
             })
         },
-        supports: opaque_only,
+        supports: gbuffer_without_maps,
     },
     SchemeEntry {
         name: "clustered",
@@ -125,7 +125,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
                 lists: Lists::Clustered,
             })
         },
-        supports: opaque_only,
+        supports: gbuffer_without_maps,
     },
     SchemeEntry {
         name: "visbuffer",
@@ -152,7 +152,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
                 variant: Variant::Samples,
             })
         },
-        supports: opaque_only,
+        supports: dais_without_maps,
     },
     SchemeEntry {
         name: "dais-list",
@@ -161,7 +161,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
         reports_cache: false,
         has_thresholds: false,
         build: |_, _| Box::new(Dais { variant: Variant::List }),
-        supports: opaque_only,
+        supports: dais_without_maps,
     },
     SchemeEntry {
         name: "dais-multirate",
@@ -174,7 +174,7 @@ pub const SCHEMES: [SchemeEntry; 15] = [
                 variant: Variant::Multirate,
             })
         },
-        supports: opaque_only,
+        supports: dais_without_maps,
     },
     SchemeEntry {
         name: "repro-rt",
@@ -215,6 +215,28 @@ fn opaque_only(scene: &Scene) -> Result<(), String> {
         )),
         None => Ok(()),
     }
+}
+
+/// [`opaque_only`], and no surface maps: what a scheme needs whose stored shading inputs
+/// (`what`) have no channels for normal, metallic-roughness, occlusion or emissive maps.
+fn opaque_without_maps(scene: &Scene, what: &str) -> Result<(), String> {
+    opaque_only(scene)?;
+    match scene.surface_maps.materials.iter().position(|m| !m.is_empty()) {
+        Some(i) => Err(format!(
+            "material `{}` has surface maps (normal, metallic-roughness, occlusion or emissive), which {what} \
+             has no channels for yet",
+            scene.materials[i].name
+        )),
+        None => Ok(()),
+    }
+}
+
+fn gbuffer_without_maps(scene: &Scene) -> Result<(), String> {
+    opaque_without_maps(scene, "the 20-byte G-buffer")
+}
+
+fn dais_without_maps(scene: &Scene) -> Result<(), String> {
+    opaque_without_maps(scene, "the DAIS triangle record")
 }
 
 /// The registry entry of scheme `name`.

@@ -44,7 +44,7 @@ use crate::memory::{
     TRIANGLE_RECORD_BYTES,
 };
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
-use crate::shader::{compose, LightingInputs};
+use crate::shader::{compose, LightingInputs, Surface, SurfacePoint};
 use record::TriangleRecord;
 
 /// Cost stage of the derivative pass (Table 1's "Compute Derivatives").
@@ -346,11 +346,13 @@ impl DaisJob {
         let position = unit.attributes(x, y).position;
         let lighting = match self.variant {
             Variant::Samples | Variant::List => {
+                // The triangle record has no tangents: traces with surface maps are refused.
                 let inputs = LightingInputs {
                     position,
                     normal: at.normal,
                     eye: ctx.eye,
                     material,
+                    surface: SurfacePoint::default(),
                 };
                 ctx.env.lighting(&inputs, &mut self.blocks, acc.log)
             }
@@ -362,7 +364,7 @@ impl DaisJob {
         let albedo = ctx
             .env
             .albedo(material, at.uv, at.duv_dx, at.duv_dy, &mut self.blocks, acc.log);
-        let colour = compose(albedo, lighting, &mut self.blocks);
+        let colour = compose(&Surface::of_albedo(albedo), lighting, &mut self.blocks);
         self.fine.lane(
             &self.blocks,
             true,
@@ -424,6 +426,7 @@ impl DaisJob {
             normal: record.at(cx, cy).normal,
             eye: ctx.eye,
             material: unit.triangle.material,
+            surface: SurfacePoint::default(),
         };
         let lit = ctx.env.lighting(&inputs, blocks, acc.log);
         let lighting = logluv::decode(logluv::encode(lit));

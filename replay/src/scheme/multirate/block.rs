@@ -6,7 +6,7 @@ use glam::Vec2;
 
 use super::MultirateJob;
 use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
-use crate::shader::{Effects, LightTerm};
+use crate::shader::{Effects, LightTerm, SurfacePoint};
 use crate::vertex_stage::SUBPIXEL;
 
 /// One block of four coarse fragments.
@@ -125,4 +125,16 @@ fn sample_fixed(s: Vec2) -> (i64, i64) {
 pub(super) fn sample_attributes(ctx: &UnitContext, s: Vec2) -> LaneAttributes {
     let (px, py) = sample_fixed(s);
     ctx.attributes_at(px, py)
+}
+
+/// Where a block's four shading points (in corner order: x, then y) sample the surface
+/// maps: each point's footprint is the spacing of the points, the rate it shades at.
+pub(super) fn corner_surfaces(corners: &[LaneAttributes; 4]) -> [SurfacePoint; 4] {
+    let (duv_dx, duv_dy) = (corners[1].uv - corners[0].uv, corners[2].uv - corners[0].uv);
+    corners.map(|a| SurfacePoint {
+        uv: a.uv,
+        duv_dx,
+        duv_dy,
+        tangent: a.tangent,
+    })
 }

@@ -27,8 +27,8 @@ use crate::cost::{BlockSet, SimdPacker};
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
-use crate::shader::{compose, Effects, LightTerm, LightingInputs};
-use block::{sample_attributes, CoarseBlock};
+use crate::shader::{compose, Effects, LightTerm, LightingInputs, SurfacePoint};
+use block::{corner_surfaces, sample_attributes, CoarseBlock};
 pub use config::{
     CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
     DEFAULT_SAMPLING,
@@ -291,11 +291,12 @@ impl MultirateJob {
             );
             ctx.pixel_id(cx.min(ctx.width - 1), cy.min(ctx.height - 1))
         });
-        for (i, &s) in b.samples.iter().enumerate() {
-            let a = sample_attributes(ctx, s);
+        let corners = b.samples.map(|s| sample_attributes(ctx, s));
+        for (i, a) in corners.iter().enumerate() {
             positions[i] = a.position;
             normals[i] = a.normal;
         }
+        let surfaces = corner_surfaces(&corners);
         // The block's own cache keys, computed once for the query and the store.
         let keys: Option<[CacheKey; 4]> = self
             .cache
@@ -312,8 +313,7 @@ impl MultirateJob {
             let lane = self.shade_coarse_fragment(
                 ctx,
                 pixels[i],
-                positions[i],
-                normals[i],
+                (positions[i], normals[i], surfaces[i]),
                 &mut b.terms[i * n..(i + 1) * n],
                 log,
             );
@@ -337,8 +337,7 @@ impl MultirateJob {
         &mut self,
         ctx: &UnitContext,
         pixel: u32,
-        position: Vec3,
-        normal: Vec3,
+        (position, normal, surface): (Vec3, Vec3, SurfacePoint),
         terms: &mut [LightTerm],
         log: &mut AccessLog,
     ) -> usize {
@@ -349,6 +348,7 @@ impl MultirateJob {
                 normal,
                 eye: ctx.eye,
                 material: ctx.triangle.material,
+                surface,
             },
             Effects::all(),
             terms,
@@ -425,13 +425,19 @@ impl MultirateJob {
                     normal: lane.normal,
                     eye: ctx.eye,
                     material,
+                    surface: SurfacePoint {
+                        uv: lane.uv,
+                        duv_dx,
+                        duv_dy,
+                        tangent: lane.tangent,
+                    },
                 };
                 ctx.env
                     .light_terms(&inputs, refine, &mut self.terms, lane_blocks, acc.log);
             }
             let lighting = ctx.env.combine(&self.terms);
-            let albedo = ctx.env.albedo(material, lane.uv, duv_dx, duv_dy, lane_blocks, acc.log);
-            out[l] = compose(albedo, lighting, lane_blocks);
+            let surface = ctx.env.surface(material, lane.uv, duv_dx, duv_dy, lane_blocks, acc.log);
+            out[l] = compose(&surface, lighting, lane_blocks);
             let useful = quad.lanes & (1 << l) != 0;
             let pixel = ctx.pixel_id(x, y);
             if useful && key != 0 && pixel != u32::MAX {

@@ -18,7 +18,7 @@
 
 use glam::{Mat2, Vec2, Vec3};
 
-use super::block::CoarseBlock;
+use super::block::{corner_surfaces, CoarseBlock};
 use super::config::{CacheSpace, CoarseMode};
 use super::MultirateJob;
 use crate::cost_table::Block;
@@ -344,6 +344,9 @@ impl MultirateJob {
             } else {
                 cache.counters.blocks_skipped += 1;
             }
+            let corners =
+                std::array::from_fn(|i| ctx.interpolate(frame.shading_bary(cell.corner_param(i), cell.level)));
+            let surfaces = corner_surfaces(&corners);
             for i in (0..4).filter(|&i| missing[i]) {
                 let bary = frame.shading_bary(cell.corner_param(i), cell.level);
                 let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
@@ -354,8 +357,7 @@ impl MultirateJob {
                 self.shade_coarse_fragment(
                     ctx,
                     pixel,
-                    positions[i],
-                    normals[i],
+                    (positions[i], normals[i], surfaces[i]),
                     &mut b.terms[i * n..(i + 1) * n],
                     log,
                 );

@@ -35,7 +35,7 @@ use std::sync::Arc;
 use glam::{Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{ReprojectionStats, ShadingCost, SpecularError, Traffic, VertexStats};
 
-use super::deferred::{refetched_albedo, VISIBILITY};
+use super::deferred::{refetched_surface, VISIBILITY};
 use super::distinct_triangles;
 use super::{
     Accounting, Deferred, FinishedFrame, Lists, Passes, SchemeJob, SchemeStats, ShadeQuad, ShadingScheme, Target,
@@ -46,7 +46,7 @@ use crate::cost_table::Block;
 use crate::memory::{AccessLog, RenderTarget, Stream, LINE_BYTES};
 use crate::pipeline::{SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE, VERTEX_BYTES};
 use crate::raster::{pixel_center, rasterize, Rect};
-use crate::shader::{compose, LightingInputs};
+use crate::shader::{compose, LightingInputs, SurfacePoint};
 use crate::srgb::linear_to_srgb8;
 use crate::vertex_stage::setup_clip_triangle;
 use grid::{GridParams, SourceImage};
@@ -508,22 +508,24 @@ impl ReprojectionJob {
             0.0
         };
         let material = triangle.material;
-        let albedo = ctx.env.albedo(
-            material,
+        let at = SurfacePoint {
             uv,
-            Vec2::new(scale, 0.0),
-            Vec2::new(0.0, scale),
-            &mut self.blocks,
-            acc.log,
-        );
+            duv_dx: Vec2::new(scale, 0.0),
+            duv_dy: Vec2::new(0.0, scale),
+            tangent: trace::hit_tangent(g, [i, j, k], Vec3::new(w, hit.u, hit.v)),
+        };
+        let surface = ctx
+            .env
+            .surface(material, uv, at.duv_dx, at.duv_dy, &mut self.blocks, acc.log);
         let inputs = LightingInputs {
             position,
             normal,
             eye: ctx.eye,
             material,
+            surface: at,
         };
         let lighting = ctx.env.lighting(&inputs, &mut self.blocks, acc.log);
-        compose(albedo, lighting, &mut self.blocks)
+        compose(&surface, lighting, &mut self.blocks)
     }
 
     /// A hole pixel re-rasterized: each distinct triangle among its samples shaded once as
@@ -547,15 +549,16 @@ impl ReprojectionJob {
             self.blocks.clear();
             let material = unit.triangle.material;
             let own = unit.attributes(x, y);
-            let albedo = refetched_albedo(&unit, own.uv, (x, y), &mut self.blocks, acc.log);
+            let (surface, at) = refetched_surface(&unit, &own, (x, y), &mut self.blocks, acc.log);
             let inputs = LightingInputs {
                 position: own.position,
                 normal: own.normal,
                 eye: ctx.eye,
                 material,
+                surface: at,
             };
             let lighting = ctx.env.lighting(&inputs, &mut self.blocks, acc.log);
-            let colour = compose(albedo, lighting, &mut self.blocks);
+            let colour = compose(&surface, lighting, &mut self.blocks);
             self.packer.lane(
                 &self.blocks,
                 true,
@@ -624,9 +627,14 @@ fn specular_error(ctx: &ViewContext, warped: &[Option<(Vec4, u32, Vec2)>]) -> Sp
         let normal = g.normals[i] * w + g.normals[j] * hit.u + g.normals[k] * hit.v;
         let uv = g.uvs[i] * w + g.uvs[j] * hit.u + g.uvs[k] * hit.v;
         let material = triangle.material;
-        let albedo = ctx
+        let surface = ctx
             .env
-            .albedo(material, uv, Vec2::ZERO, Vec2::ZERO, &mut blocks, &mut log);
+            .surface(material, uv, Vec2::ZERO, Vec2::ZERO, &mut blocks, &mut log);
+        let at = SurfacePoint {
+            uv,
+            tangent: trace::hit_tangent(g, [i, j, k], Vec3::new(w, hit.u, hit.v)),
+            ..SurfacePoint::default()
+        };
         let mut colours = [[0u8; 3]; 2];
         for (colour, eye) in colours.iter_mut().zip(ctx.eyes) {
             let inputs = LightingInputs {
@@ -634,9 +642,10 @@ fn specular_error(ctx: &ViewContext, warped: &[Option<(Vec4, u32, Vec2)>]) -> Sp
                 normal,
                 eye,
                 material,
+                surface: at,
             };
             let lighting = ctx.env.lighting(&inputs, &mut blocks, &mut log);
-            let c = compose(albedo, lighting, &mut blocks);
+            let c = compose(&surface, lighting, &mut blocks);
             *colour = [c.x, c.y, c.z].map(linear_to_srgb8);
         }
         let d = (0..3).map(|c| colours[0][c].abs_diff(colours[1][c])).max().unwrap_or(0);
