@@ -61,9 +61,14 @@ def main():
         bin_chunk += encoded
         doc["images"][i] = {"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/ktx2"}
     for texture in doc.get("textures", []):
-        texture.setdefault("extensions", {})["KHR_texture_basisu"] = {"source": texture.pop("source")}
+        extensions = texture.setdefault("extensions", {})
+        # A WebP-only texture names its image in EXT_texture_webp.
+        webp = extensions.pop("EXT_texture_webp", None)
+        source = texture.pop("source", None)
+        extensions["KHR_texture_basisu"] = {"source": webp["source"] if webp else source}
     for key in ("extensionsUsed", "extensionsRequired"):
-        doc[key] = sorted(set(doc.get(key, [])) | {"KHR_texture_basisu"})
+        used = set(doc.get(key, [])) - {"EXT_texture_webp"}
+        doc[key] = sorted(used | {"KHR_texture_basisu"})
     doc["buffers"][0]["byteLength"] = len(bin_chunk)
     write_glb(dst, doc, bin_chunk)
 
