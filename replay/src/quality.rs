@@ -142,43 +142,61 @@ impl RowScratch {
     }
 
     /// Gaussian-filters row `y` of x, y, x², y² and xy: first along columns (axis 0), then
-    /// along the row (axis 1), the order of `scipy.ndimage.gaussian_filter`.
+    /// along the row (axis 1), the order of `scipy.ndimage.gaussian_filter`. Each output
+    /// sums its taps in SciPy's `correlate1d` order for a symmetric kernel (centre first,
+    /// then each outermost pair's sum times its weight, inward), so every bit is SciPy's;
+    /// the loops run tap by tap along whole rows, which reads memory in order and vectorizes.
     fn filter_row(&mut self, a: &[f64], b: &[f64], w: usize, h: usize, y: usize, weights: &[f64; 2 * RADIUS + 1]) {
         let rows: [usize; 2 * RADIUS + 1] =
             std::array::from_fn(|k| reflect(y as isize + k as isize - RADIUS as isize, h));
-        for (padded_x, column) in (0..w + 2 * RADIUS).map(|p| (p, reflect(p as isize - RADIUS as isize, w))) {
-            let tap = |k: usize| -> [f64; 5] {
-                let (p, q) = (a[rows[k] * w + column], b[rows[k] * w + column]);
-                [p, q, p * p, q * q, p * q]
-            };
-            let filtered = correlate(tap, weights);
-            for (plane, value) in self.vertical.iter_mut().zip(filtered) {
-                plane[padded_x] = value;
-            }
+        fn row<'i>(img: &'i [f64], rows: &[usize], k: usize, w: usize) -> &'i [f64] {
+            &img[rows[k] * w..(rows[k] + 1) * w]
         }
+        let [vx, vy, vxx, vyy, vxy] = self.vertical.each_mut().map(|plane| &mut plane[RADIUS..RADIUS + w]);
+        let (centre_a, centre_b, wc) = (row(a, &rows, RADIUS, w), row(b, &rows, RADIUS, w), weights[RADIUS]);
         for x in 0..w {
-            let filtered = correlate(|k| self.vertical.each_ref().map(|plane| plane[x + k]), weights);
-            for (plane, value) in self.filtered.iter_mut().zip(filtered) {
-                plane[x] = value;
+            let (p, q) = (centre_a[x], centre_b[x]);
+            vx[x] = p * wc;
+            vy[x] = q * wc;
+            vxx[x] = (p * p) * wc;
+            vyy[x] = (q * q) * wc;
+            vxy[x] = (p * q) * wc;
+        }
+        for d in (1..=RADIUS).rev() {
+            let (lo_a, hi_a) = (row(a, &rows, RADIUS - d, w), row(a, &rows, RADIUS + d, w));
+            let (lo_b, hi_b) = (row(b, &rows, RADIUS - d, w), row(b, &rows, RADIUS + d, w));
+            let wd = weights[RADIUS - d];
+            for x in 0..w {
+                let (p0, p1, q0, q1) = (lo_a[x], hi_a[x], lo_b[x], hi_b[x]);
+                vx[x] += (p0 + p1) * wd;
+                vy[x] += (q0 + q1) * wd;
+                vxx[x] += (p0 * p0 + p1 * p1) * wd;
+                vyy[x] += (q0 * q0 + q1 * q1) * wd;
+                vxy[x] += (p0 * q0 + p1 * q1) * wd;
+            }
+        }
+        // The padding columns are reflected columns: their vertical sums are those columns'.
+        for plane in &mut self.vertical {
+            for p in (0..RADIUS).chain(w + RADIUS..w + 2 * RADIUS) {
+                plane[p] = plane[RADIUS + reflect(p as isize - RADIUS as isize, w)];
+            }
+        }
+        for (vertical, out) in self.vertical.iter().zip(&mut self.filtered) {
+            for x in 0..w {
+                out[x] = vertical[x + RADIUS] * wc;
+            }
+            for d in (1..=RADIUS).rev() {
+                let wd = weights[RADIUS - d];
+                let (lo, hi) = (
+                    &vertical[RADIUS - d..RADIUS - d + w],
+                    &vertical[RADIUS + d..RADIUS + d + w],
+                );
+                for x in 0..w {
+                    out[x] += (lo[x] + hi[x]) * wd;
+                }
             }
         }
     }
-}
-
-/// One output sample of SciPy's `correlate1d` for a symmetric kernel, for five signals at
-/// once; `tap(k)` is the input under weight `k` (0..=2 * RADIUS). SciPy folds the symmetric
-/// taps: centre first, then (outermost pair sum) * weight inward; copied here so the
-/// rounding matches.
-fn correlate(tap: impl Fn(usize) -> [f64; 5], weights: &[f64; 2 * RADIUS + 1]) -> [f64; 5] {
-    let centre = tap(RADIUS);
-    let mut acc = centre.map(|v| v * weights[RADIUS]);
-    for d in (1..=RADIUS).rev() {
-        let (lo, hi) = (tap(RADIUS - d), tap(RADIUS + d));
-        for i in 0..5 {
-            acc[i] += (lo[i] + hi[i]) * weights[RADIUS - d];
-        }
-    }
-    acc
 }
 
 /// SciPy's `mode='reflect'` (half-sample symmetric) for any offset, including several

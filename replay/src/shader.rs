@@ -390,6 +390,7 @@ impl ShaderEnv<'_> {
 
     /// The fine surface: [`ShaderEnv::albedo`], and the occlusion and emission of the
     /// material's maps (nothing more for a material without them).
+    #[inline]
     pub fn surface(
         &self,
         material: u32,
@@ -439,6 +440,7 @@ fn phong(r_dot_l: f32, exponent: f32) -> f32 {
 /// emission, Reinhard tone-mapped to [0, 1), alpha kept. NaN (which only degenerate input
 /// could produce) becomes black rather than reaching an image. Without occlusion and
 /// emission this is exactly `tonemap(albedo * lighting)`.
+#[inline]
 pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4 {
     blocks.take(Block::Compose);
     let albedo = surface.albedo;

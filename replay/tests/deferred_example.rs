@@ -58,7 +58,7 @@ impl DeferredJob {
                 uv: lane.uv,
                 duv_dx,
                 duv_dy,
-                tangent: lane.tangent,
+                tangent: ctx.tangent(x, y),
             },
         };
         let lighting = ctx.env.lighting(&inputs, &mut self.blocks, acc.log);

@@ -396,7 +396,11 @@ pub(super) fn refetched_surface(
         uv: own.uv,
         duv_dx: b - a,
         duv_dy: c - a,
-        tangent: own.tangent,
+        tangent: if unit.needs_tangents() {
+            unit.tangent(x, y)
+        } else {
+            Vec4::ZERO
+        },
     };
     let surface = unit
         .env

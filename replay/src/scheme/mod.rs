@@ -78,8 +78,6 @@ pub struct LaneAttributes {
     pub position: Vec3,
     pub normal: Vec3,
     pub uv: Vec2,
-    /// Zero when the scene has no normal map.
-    pub tangent: Vec4,
 }
 
 impl UnitContext<'_> {
@@ -90,11 +88,13 @@ impl UnitContext<'_> {
     }
 
     /// Attributes at a fixed-point screen position (8 sub-pixel bits).
+    #[inline]
     pub fn attributes_at(&self, px: i64, py: i64) -> LaneAttributes {
         self.interpolate(self.setup.original_bary(self.setup.edges(px, py)))
     }
 
     /// Attributes at barycentric coordinates `b` of the triangle's vertices.
+    #[inline(always)]
     pub fn interpolate(&self, b: Vec3) -> LaneAttributes {
         let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
         let g = self.geometry;
@@ -102,12 +102,34 @@ impl UnitContext<'_> {
             position: g.positions[i] * b.x + g.positions[j] * b.y + g.positions[k] * b.z,
             normal: g.normals[i] * b.x + g.normals[j] * b.y + g.normals[k] * b.z,
             uv: g.uvs[i] * b.x + g.uvs[j] * b.y + g.uvs[k] * b.z,
-            tangent: if g.tangents.is_empty() {
-                Vec4::ZERO
-            } else {
-                g.tangents[i] * b.x + g.tangents[j] * b.y + g.tangents[k] * b.z
-            },
         }
+    }
+
+    /// Whether the triangle's material has a normal map, so its lanes need [`Self::tangent_at`].
+    pub fn needs_tangents(&self) -> bool {
+        !self.geometry.tangents.is_empty() && self.env.maps.of(self.triangle.material).normal.is_some()
+    }
+
+    /// The tangent at a pixel centre (zero without tangents). Apart from
+    /// [`Self::attributes`], so that scenes without normal maps never interpolate one.
+    pub fn tangent(&self, x: u32, y: u32) -> Vec4 {
+        let (px, py) = pixel_center(x, y);
+        self.tangent_at_bary(self.setup.original_bary(self.setup.edges(px, py)))
+    }
+
+    /// The tangent at a fixed-point screen position (zero without tangents).
+    pub fn tangent_at(&self, px: i64, py: i64) -> Vec4 {
+        self.tangent_at_bary(self.setup.original_bary(self.setup.edges(px, py)))
+    }
+
+    /// The tangent at barycentrics `b` of the triangle's vertices (zero without tangents).
+    pub fn tangent_at_bary(&self, b: Vec3) -> Vec4 {
+        let t = &self.geometry.tangents;
+        if t.is_empty() {
+            return Vec4::ZERO;
+        }
+        let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
+        t[i] * b.x + t[j] * b.y + t[k] * b.z
     }
 
     /// Heat-map id of a pixel (`u32::MAX` outside the view).

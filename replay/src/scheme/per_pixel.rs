@@ -80,6 +80,7 @@ impl SchemeJob for PerPixelJob {
         acc: &mut Accounting,
     ) {
         let material = ctx.triangle.material;
+        let tangents = ctx.needs_tangents();
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
             let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
@@ -87,6 +88,7 @@ impl SchemeJob for PerPixelJob {
             let duv_dy = lanes[2].uv - lanes[0].uv;
             let mut out = [Vec4::ZERO; 4];
             for (l, lane) in lanes.iter().enumerate() {
+                let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 self.blocks.clear();
                 let inputs = LightingInputs {
                     position: lane.position,
@@ -97,7 +99,7 @@ impl SchemeJob for PerPixelJob {
                         uv: lane.uv,
                         duv_dx,
                         duv_dy,
-                        tangent: lane.tangent,
+                        tangent: if tangents { ctx.tangent(x, y) } else { Vec4::ZERO },
                     },
                 };
                 let lighting = match &self.lists {
@@ -112,7 +114,6 @@ impl SchemeJob for PerPixelJob {
                     .env
                     .surface(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
                 out[l] = compose(&surface, lighting, &mut self.blocks);
-                let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 let useful = quad.lanes & (1 << l) != 0;
                 self.packer
                     .lane(&self.blocks, useful, ctx.pixel_id(x, y), fine, acc.heat);

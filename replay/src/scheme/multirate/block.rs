@@ -2,7 +2,7 @@
 //! grouping a unit's quads into blocks, where each fine lane reads its coarse terms, and the
 //! placement of a block's coarse samples.
 
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 
 use super::MultirateJob;
 use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
@@ -114,7 +114,7 @@ impl MultirateJob {
 }
 
 /// Fixed-point screen position of a coarse sample (pixel coordinates).
-fn sample_fixed(s: Vec2) -> (i64, i64) {
+pub(super) fn sample_fixed(s: Vec2) -> (i64, i64) {
     (
         (s.x * SUBPIXEL as f32).round() as i64,
         (s.y * SUBPIXEL as f32).round() as i64,
@@ -129,12 +129,12 @@ pub(super) fn sample_attributes(ctx: &UnitContext, s: Vec2) -> LaneAttributes {
 
 /// Where a block's four shading points (in corner order: x, then y) sample the surface
 /// maps: each point's footprint is the spacing of the points, the rate it shades at.
-pub(super) fn corner_surfaces(corners: &[LaneAttributes; 4]) -> [SurfacePoint; 4] {
+pub(super) fn corner_surfaces(corners: &[LaneAttributes; 4], tangents: [Vec4; 4]) -> [SurfacePoint; 4] {
     let (duv_dx, duv_dy) = (corners[1].uv - corners[0].uv, corners[2].uv - corners[0].uv);
-    corners.map(|a| SurfacePoint {
-        uv: a.uv,
+    std::array::from_fn(|i| SurfacePoint {
+        uv: corners[i].uv,
         duv_dx,
         duv_dy,
-        tangent: a.tangent,
+        tangent: tangents[i],
     })
 }

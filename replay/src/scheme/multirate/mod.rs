@@ -296,7 +296,14 @@ impl MultirateJob {
             positions[i] = a.position;
             normals[i] = a.normal;
         }
-        let surfaces = corner_surfaces(&corners);
+        let tangents = match ctx.needs_tangents() {
+            true => b.samples.map(|s| {
+                let (px, py) = block::sample_fixed(s);
+                ctx.tangent_at(px, py)
+            }),
+            false => [Vec4::ZERO; 4],
+        };
+        let surfaces = corner_surfaces(&corners, tangents);
         // The block's own cache keys, computed once for the query and the store.
         let keys: Option<[CacheKey; 4]> = self
             .cache
@@ -429,7 +436,11 @@ impl MultirateJob {
                         uv: lane.uv,
                         duv_dx,
                         duv_dy,
-                        tangent: lane.tangent,
+                        tangent: if ctx.needs_tangents() {
+                            ctx.tangent(x, y)
+                        } else {
+                            Vec4::ZERO
+                        },
                     },
                 };
                 ctx.env

@@ -16,7 +16,7 @@
 //! slightly at shared corners: the "inconsistent shading across the triangles in the patch"
 //! the tile-pair paper observes of AMFS.
 
-use glam::{Mat2, Vec2, Vec3};
+use glam::{Mat2, Vec2, Vec3, Vec4};
 
 use super::block::{corner_surfaces, CoarseBlock};
 use super::config::{CacheSpace, CoarseMode};
@@ -344,9 +344,12 @@ impl MultirateJob {
             } else {
                 cache.counters.blocks_skipped += 1;
             }
-            let corners =
-                std::array::from_fn(|i| ctx.interpolate(frame.shading_bary(cell.corner_param(i), cell.level)));
-            let surfaces = corner_surfaces(&corners);
+            let barys: [Vec3; 4] = std::array::from_fn(|i| frame.shading_bary(cell.corner_param(i), cell.level));
+            let tangents = match ctx.needs_tangents() {
+                true => barys.map(|b| ctx.tangent_at_bary(b)),
+                false => [Vec4::ZERO; 4],
+            };
+            let surfaces = corner_surfaces(&barys.map(|b| ctx.interpolate(b)), tangents);
             for i in (0..4).filter(|&i| missing[i]) {
                 let bary = frame.shading_bary(cell.corner_param(i), cell.level);
                 let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
