@@ -7,7 +7,7 @@
 //! one's elements, tightly packed in its component type, so that accessor reads take
 //! them like any other.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use draco_oxide_core::attribute::{Attribute, ComponentDataType};
 use draco_oxide_core::types::PointIdx;
@@ -23,8 +23,9 @@ pub(super) const EXTENSION: &str = "KHR_draco_mesh_compression";
 #[serde(rename_all = "camelCase")]
 struct Compressed {
     buffer_view: u32,
-    /// Attribute semantic to the Draco attribute's unique id.
-    attributes: HashMap<String, u32>,
+    /// Attribute semantic to the Draco attribute's unique id (in name order, so that the
+    /// first error reported does not depend on hashing).
+    attributes: BTreeMap<String, u32>,
 }
 
 /// Decodes every Draco primitive. `view_bytes` gives a buffer view's bytes; the decoded
