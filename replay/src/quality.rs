@@ -107,8 +107,8 @@ pub fn ssim_map(a: &[f64], b: &[f64], width: u32, height: u32) -> Option<Vec<f64
         || RowScratch::new(w),
         |scratch, (y, out)| {
             scratch.filter_row(a, b, w, h, y, &weights);
-            let [ux, uy, uxx, uyy, uxy] = &scratch.filtered;
-            for (x, s) in out.iter_mut().enumerate() {
+            let [ux, uy, uxx, uyy, uxy] = scratch.filtered.each_ref().map(|plane| &plane[..w]);
+            for (x, s) in out[..w].iter_mut().enumerate() {
                 let (ux, uy) = (ux[x], uy[x]);
                 // scikit-image's expressions, term for term and in the same order.
                 let vx = uxx[x] - ux * ux;
@@ -152,8 +152,16 @@ impl RowScratch {
         fn row<'i>(img: &'i [f64], rows: &[usize], k: usize, w: usize) -> &'i [f64] {
             &img[rows[k] * w..(rows[k] + 1) * w]
         }
-        let [vx, vy, vxx, vyy, vxy] = self.vertical.each_mut().map(|plane| &mut plane[RADIUS..RADIUS + w]);
-        let (centre_a, centre_b, wc) = (row(a, &rows, RADIUS, w), row(b, &rows, RADIUS, w), weights[RADIUS]);
+        // Every slice is re-cut to exactly `w` so that the loops carry no bounds checks.
+        let [vx, vy, vxx, vyy, vxy] = self
+            .vertical
+            .each_mut()
+            .map(|plane| &mut plane[RADIUS..RADIUS + w][..w]);
+        let (centre_a, centre_b, wc) = (
+            &row(a, &rows, RADIUS, w)[..w],
+            &row(b, &rows, RADIUS, w)[..w],
+            weights[RADIUS],
+        );
         for x in 0..w {
             let (p, q) = (centre_a[x], centre_b[x]);
             vx[x] = p * wc;
@@ -163,8 +171,8 @@ impl RowScratch {
             vxy[x] = (p * q) * wc;
         }
         for d in (1..=RADIUS).rev() {
-            let (lo_a, hi_a) = (row(a, &rows, RADIUS - d, w), row(a, &rows, RADIUS + d, w));
-            let (lo_b, hi_b) = (row(b, &rows, RADIUS - d, w), row(b, &rows, RADIUS + d, w));
+            let (lo_a, hi_a) = (&row(a, &rows, RADIUS - d, w)[..w], &row(a, &rows, RADIUS + d, w)[..w]);
+            let (lo_b, hi_b) = (&row(b, &rows, RADIUS - d, w)[..w], &row(b, &rows, RADIUS + d, w)[..w]);
             let wd = weights[RADIUS - d];
             for x in 0..w {
                 let (p0, p1, q0, q1) = (lo_a[x], hi_a[x], lo_b[x], hi_b[x]);
@@ -182,14 +190,15 @@ impl RowScratch {
             }
         }
         for (vertical, out) in self.vertical.iter().zip(&mut self.filtered) {
+            let (out, centre) = (&mut out[..w], &vertical[RADIUS..RADIUS + w][..w]);
             for x in 0..w {
-                out[x] = vertical[x + RADIUS] * wc;
+                out[x] = centre[x] * wc;
             }
             for d in (1..=RADIUS).rev() {
                 let wd = weights[RADIUS - d];
                 let (lo, hi) = (
-                    &vertical[RADIUS - d..RADIUS - d + w],
-                    &vertical[RADIUS + d..RADIUS + d + w],
+                    &vertical[RADIUS - d..RADIUS - d + w][..w],
+                    &vertical[RADIUS + d..RADIUS + d + w][..w],
                 );
                 for x in 0..w {
                     out[x] += (lo[x] + hi[x]) * wd;
