@@ -46,12 +46,7 @@ enum Command {
 fn main() -> ExitCode {
     // Panics capture contains (a decoder's, on a corrupt file) become one-line errors;
     // print only the others.
-    let default_hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        if !shadetrace_capture::contained::is_containing() {
-            default_hook(info);
-        }
-    }));
+    shadetrace_capture::contained::quiet_contained_panics();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Capture(args) => commands::capture::run(args),

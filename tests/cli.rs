@@ -545,6 +545,7 @@ fn texture_maps_that_are_not_captured_are_named_in_a_warning() {
     let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
     doc["materials"][0]["normalTexture"] = serde_json::json!({ "index": 0 });
     doc["materials"][0]["emissiveTexture"] = serde_json::json!({ "index": 0 });
+    doc["materials"][0]["emissiveFactor"] = serde_json::json!([1.0, 1.0, 1.0]);
     std::fs::write(&gltf, doc.to_string()).unwrap();
     let out = dir.path().join("out.strace");
     let o = shadetrace(&[

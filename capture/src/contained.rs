@@ -17,6 +17,20 @@ pub fn is_containing() -> bool {
     CONTAINING.with(Cell::get)
 }
 
+/// Makes the process's panic hook pass on only the panics [`contain`] does not contain
+/// (once; later calls do nothing), so that a contained decoder panic prints nothing.
+pub fn quiet_contained_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let inner = panic::take_hook();
+        panic::set_hook(Box::new(move |info| {
+            if !is_containing() {
+                inner(info);
+            }
+        }));
+    });
+}
+
 /// Runs `f`; a panic becomes `Err` with its message. `f` must leave nothing half-updated
 /// that the caller reads after an `Err` (decoders here only build fresh values).
 pub(crate) fn contain<T>(f: impl FnOnce() -> T) -> Result<T, String> {

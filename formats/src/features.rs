@@ -10,7 +10,7 @@ pub struct Features(u32);
 /// One requirement a scene may have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Feature {
-    /// At least one material samples a base-colour texture.
+    /// The scene has textures (base colour or surface maps).
     Textures,
     /// A directional light casts shadows (replay runs a shadow-map pass).
     ShadowedLight,

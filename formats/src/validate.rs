@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec2, Vec3};
 
 use crate::error::{Error, Result};
-use crate::schema::{Counts, Frame, LightKind, Meta, Motion, Scene};
+use crate::schema::{Counts, Frame, LightKind, Meta, Motion, Scene, SurfaceMaps};
 
 fn invalid(msg: String) -> Error {
     Error::Invalid(msg)
@@ -45,13 +45,19 @@ pub fn check_meta(meta: &Meta) -> Result<()> {
     Ok(())
 }
 
-/// Checks the static chunks against each other and against the counts in `Meta`.
-/// The `SurfaceMaps` chunk against the scene: textures exist, factors are finite, one
-/// tangent list per mesh with one unit tangent per vertex where a normal map needs them.
+/// The `SurfaceMaps` chunk against the scene: it has a map (a writer leaves an empty one
+/// out), textures exist, factors are finite, no normal map is on a skinned mesh (frames
+/// carry no skinned tangents), and there is one tangent list per mesh with one unit
+/// tangent per vertex exactly where a normal map needs them.
 fn check_surface_maps(scene: &Scene) -> Result<()> {
     let maps = &scene.surface_maps;
-    if maps.is_empty() {
+    if *maps == SurfaceMaps::default() {
         return Ok(());
+    }
+    if maps.is_empty() {
+        return Err(invalid(
+            "surface maps without a single map (a writer leaves the chunk out)".to_string(),
+        ));
     }
     let textures = scene.textures.len();
     if maps.materials.len() != scene.materials.len() {
@@ -95,6 +101,12 @@ fn check_surface_maps(scene: &Scene) -> Result<()> {
     }
     for (i, (mesh, tangents)) in meshes.iter().zip(&maps.tangents).enumerate() {
         let needs = maps.of(mesh.material).normal.is_some();
+        if needs && matches!(mesh.motion, Motion::Skinned { .. }) {
+            return Err(invalid(format!(
+                "mesh {i} ({}) is skinned but its material has a normal map (frames carry no skinned tangents)",
+                mesh.name
+            )));
+        }
         let ok = if needs {
             tangents.len() == mesh.positions.len()
                 && tangents
@@ -113,6 +125,7 @@ fn check_surface_maps(scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// Checks the static chunks against each other and against the counts in `Meta`.
 pub fn check_scene(scene: &Scene, counts: &Counts) -> Result<()> {
     let expected = scene.counts(counts.frames);
     if &expected != counts {

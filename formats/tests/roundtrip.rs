@@ -40,6 +40,16 @@ fn surface_maps_round_trip_in_minor_1_only() {
     bad.surface_maps.tangents[0].pop();
     let meta = meta_for(&bad, 2);
     assert!(TraceWriter::new(Vec::new(), 3, &meta, &bad).is_err());
+    // No normal map on a skinned mesh (frames carry no skinned tangents).
+    let mut skinned = sample_scene_with_maps();
+    skinned.geometry.meshes[2].material = 0;
+    skinned.surface_maps.tangents[2] = vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0); 4];
+    assert!(TraceWriter::new(Vec::new(), 3, &meta_for(&skinned, 2), &skinned).is_err());
+    // A chunk without a single map is not what a writer writes, and not accepted.
+    let mut empty = sample_scene_with_maps();
+    empty.surface_maps.materials = vec![MaterialMaps::NONE; 2];
+    empty.surface_maps.tangents = vec![vec![]; 3];
+    assert!(TraceWriter::new(Vec::new(), 3, &meta_for(&empty, 2), &empty).is_err());
 }
 
 #[test]

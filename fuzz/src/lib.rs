@@ -66,25 +66,13 @@ fn model_folder() -> &'static PathBuf {
     })
 }
 
-/// libFuzzer's panic hook aborts on every panic. Capture contains the panics of a decoder
-/// on corrupt input and reports them as errors (`shadetrace_capture::contained`), as the
-/// `shadetrace` binary does, so those are not findings: the hook is passed only the others.
-fn pass_on_uncontained_panics() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let inner = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !shadetrace_capture::contained::is_containing() {
-                inner(info);
-            }
-        }));
-    });
-}
-
 /// Captures the bytes as a `.gltf`/`.glb` file (two small frames); whatever capture accepts
 /// must write a trace the reader accepts with the same hash.
 pub fn gltf_import(data: &[u8]) {
-    pass_on_uncontained_panics();
+    // libFuzzer's panic hook aborts on every panic; capture contains a decoder's panics on
+    // corrupt input and reports them as errors, as the binary does, so those are not
+    // findings: the hook hears only the others.
+    shadetrace_capture::contained::quiet_contained_panics();
     let path = model_folder().join("input.glb");
     std::fs::write(&path, data).expect("write input");
     let opts = CaptureOptions {

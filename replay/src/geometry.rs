@@ -33,6 +33,8 @@ pub struct FrameGeometry {
 impl FrameGeometry {
     pub fn build(scene: &Scene, frame: &Frame) -> FrameGeometry {
         let mut g = FrameGeometry::default();
+        // Tangents only when some mesh has them (a normal map): none are built otherwise.
+        let has_tangents = scene.surface_maps.tangents.iter().any(|t| !t.is_empty());
         for (mesh_index, mesh) in scene.geometry.meshes.iter().enumerate() {
             let base = g.positions.len() as u32;
             match mesh.motion {
@@ -64,7 +66,7 @@ impl FrameGeometry {
                 .tangents
                 .get(mesh_index)
                 .map_or(&[][..], Vec::as_slice);
-            if !scene.surface_maps.tangents.is_empty() {
+            if has_tangents {
                 match mesh.motion {
                     // Capture gives skinned meshes no tangents (frames carry none).
                     Motion::Static | Motion::Skinned { .. } => g.tangents.extend_from_slice(tangents),

@@ -199,11 +199,14 @@ impl ShaderEnv<'_> {
         let maps = self.maps.of(inp.material);
         let v = (inp.eye - inp.position).normalize_or(Vec3::Z);
         let mut n = inp.normal.normalize_or(Vec3::Y);
+        // The side is the interpolated normal's: a normal map bends the normal, it does not
+        // turn a front face into a back face.
+        let back = n.dot(v) < 0.0 && material.double_sided;
         if let Some((texture, scale)) = maps.normal {
             blocks.take(Block::NormalMap);
             n = self.normal_mapped(n, &inp.surface, texture, scale, log);
         }
-        if n.dot(v) < 0.0 && material.double_sided {
+        if back {
             n = -n;
         }
         let r = (2.0 * n.dot(v) * n - v).normalize_or(n);

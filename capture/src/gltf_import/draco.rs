@@ -64,6 +64,11 @@ pub(super) fn decode_accessors<'v>(
             let c: Compressed =
                 json::deserialize::from_value(ext.clone()).map_err(|e| input(format!("{what}: {e}")))?;
             let stream = view_bytes(json::Index::new(c.buffer_view))?;
+            let indices = primitive
+                .indices
+                .ok_or_else(|| input(format!("{what} has no indices accessor, which the extension requires")))?;
+            let index_count = root.accessors.get(indices.value()).map_or(0, |a| a.count.0);
+            check_declared_counts(stream, index_count, &what)?;
             // draco-oxide is an alpha: on about 0.5% of random byte edits of a valid stream
             // it panics (a clamp with min > max, an index past its traversal table) instead
             // of returning an error, so its panics are contained and reported the same way.
@@ -71,11 +76,9 @@ pub(super) fn decode_accessors<'v>(
                 .map_err(|panic| input(format!("{what}: corrupt Draco data (the decoder failed: {panic})")))?
                 .map_err(|e| input(format!("{what}: corrupt Draco data ({e})")))?;
             let points = mesh.attributes.first().map_or(0, Attribute::len);
-            if let Some(a) = primitive.indices {
-                let indices: Vec<f64> = mesh.faces.iter().flatten().map(|&p| usize::from(p) as f64).collect();
-                let bytes = pack(root, a.value(), &indices, 1, &format!("{what} indices"))?;
-                keep(a.value(), bytes, &what)?;
-            }
+            let corners: Vec<f64> = mesh.faces.iter().flatten().map(|&p| usize::from(p) as f64).collect();
+            let bytes = pack(root, indices.value(), &corners, 1, &format!("{what} indices"))?;
+            keep(indices.value(), bytes, &what)?;
             for (semantic, &id) in &c.attributes {
                 let Some(accessor) = primitive
                     .attributes
@@ -101,6 +104,52 @@ pub(super) fn decode_accessors<'v>(
         }
     }
     Ok(decoded)
+}
+
+/// draco-oxide allocates its connectivity tables at the sizes a stream declares, before it
+/// can find that the stream is short: the counts are checked here first against the
+/// primitive's indices accessor (`index_count`), so that a few bytes cannot ask for
+/// gigabytes. Streams with Draco metadata, whose layout only the decoder reads, are
+/// refused (glTF exporters do not write it).
+fn check_declared_counts(stream: &[u8], index_count: u64, what: &str) -> Fallible<()> {
+    use draco_oxide_core::bit_coder::Reader;
+    use draco_oxide_core::codec::header::EncoderMethod;
+    use draco_oxide_core::utils::bit_coder::leb128_read;
+    let corrupt = |e: &dyn std::fmt::Display| input(format!("{what}: corrupt Draco data ({e})"));
+    let mut reader = Reader::new(stream);
+    let header = draco_oxide_decoder::header::decode_header(&mut reader).map_err(|e| corrupt(&e))?;
+    if header.metadata {
+        return Err(super::unsupported(format!("Draco metadata in {what}")));
+    }
+    let count = |reader: &mut Reader| leb128_read(reader).map_err(|e| corrupt(&e));
+    let byte = |reader: &mut Reader| reader.read_u8().map_err(|e| corrupt(&e));
+    let faces_allowed = index_count / 3;
+    let (faces, vertices) = match header.encoder_method {
+        EncoderMethod::Sequential => {
+            let faces = count(&mut reader)?;
+            (faces, count(&mut reader)?)
+        }
+        EncoderMethod::Edgebreaker => {
+            let _traversal = byte(&mut reader)?;
+            let vertices = count(&mut reader)?;
+            let faces = count(&mut reader)?;
+            let _attribute_data = byte(&mut reader)?;
+            let (symbols, splits) = (count(&mut reader)?, count(&mut reader)?);
+            if symbols > faces || splits > faces {
+                return Err(input(format!(
+                    "{what}: the Draco stream declares more symbols than faces"
+                )));
+            }
+            (faces, vertices.saturating_add(splits))
+        }
+    };
+    if faces > faces_allowed || vertices > faces.saturating_mul(3) {
+        return Err(input(format!(
+            "{what}: the Draco stream declares {faces} faces and {vertices} vertices, but its indices accessor \
+             holds {index_count} indices"
+        )));
+    }
+    Ok(())
 }
 
 /// Every point's components, in point order.
@@ -146,6 +195,23 @@ fn pack(root: &json::Root, accessor: usize, values: &[f64], width: usize, what: 
         )));
     }
     let component = valid(&a.component_type, &what, "componentType")?.0;
+    // Integer components take integer values in their range; anything else (an index past
+    // a u16 accessor, a float into an integer attribute) is an error, not a saturated cast.
+    let range = match component {
+        ComponentType::F32 => None,
+        ComponentType::U8 => Some((0.0, f64::from(u8::MAX))),
+        ComponentType::I8 => Some((f64::from(i8::MIN), f64::from(i8::MAX))),
+        ComponentType::U16 => Some((0.0, f64::from(u16::MAX))),
+        ComponentType::I16 => Some((f64::from(i16::MIN), f64::from(i16::MAX))),
+        ComponentType::U32 => Some((0.0, f64::from(u32::MAX))),
+    };
+    if let Some((lo, hi)) = range {
+        if let Some(bad) = values.iter().find(|&&v| v.fract() != 0.0 || !(lo..=hi).contains(&v)) {
+            return Err(input(format!(
+                "{what}: decoded value {bad} does not fit its {component:?} components"
+            )));
+        }
+    }
     let mut out = Vec::with_capacity(values.len() * component.size());
     for &v in values {
         match component {
@@ -158,4 +224,50 @@ fn pack(root: &json::Root, accessor: usize, values: &[f64], width: usize, what: 
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An edgebreaker stream's header and counts: vertices, faces, symbols, split symbols.
+    fn edgebreaker(vertices: u64, faces: u64, symbols: u64, splits: u64) -> Vec<u8> {
+        let mut s = b"DRACO".to_vec();
+        s.extend([2, 2, 1, 1, 0, 0, 0]); // version 2.2, mesh, edgebreaker, no flags; standard traversal
+        let leb = |s: &mut Vec<u8>, mut v: u64| loop {
+            let byte = (v & 0x7f) as u8;
+            v >>= 7;
+            if v == 0 {
+                s.push(byte);
+                break;
+            }
+            s.push(byte | 0x80);
+        };
+        leb(&mut s, vertices);
+        leb(&mut s, faces);
+        s.push(0); // attribute data
+        leb(&mut s, symbols);
+        leb(&mut s, splits);
+        s
+    }
+
+    #[test]
+    fn declared_counts_are_bounded_by_the_accessors_before_decoding() {
+        assert!(check_declared_counts(&edgebreaker(12, 10, 10, 0), 30, "p").is_ok());
+        for (stream, why) in [
+            (edgebreaker(12, 1 << 40, 10, 0), "faces past the accessor"),
+            (edgebreaker(1 << 40, 10, 10, 0), "vertices past three per face"),
+            (edgebreaker(12, 10, 11, 0), "more symbols than faces"),
+            (edgebreaker(12, 10, 10, 11), "more split symbols than faces"),
+        ] {
+            assert!(check_declared_counts(&stream, 30, "p").is_err(), "{why}");
+        }
+        let mut with_metadata = edgebreaker(12, 10, 10, 0);
+        with_metadata[10] = 0x80; // the high byte of the flags: metadata
+        assert!(matches!(
+            check_declared_counts(&with_metadata, 30, "p"),
+            Err(super::super::Problem::Unsupported(_))
+        ));
+        assert!(check_declared_counts(b"DRAC", 30, "p").is_err(), "truncated header");
+    }
 }

@@ -175,14 +175,20 @@ impl<'a> Materials<'a> {
                     .and_then(|e| unparsed_transform(e.others.get("KHR_texture_transform")));
                 ("occlusion", o.index.value(), uv_source(o.tex_coord, t.as_ref()), true)
             }),
-            material.emissive_texture.as_ref().map(|i| {
-                (
-                    "emissive",
-                    i.index.value(),
-                    uv_source(i.tex_coord, transform_of(i).as_ref()),
-                    false,
-                )
-            }),
+            // Black times any texture is black: a zero emissive factor (glTF's default)
+            // leaves its texture unread.
+            material
+                .emissive_texture
+                .as_ref()
+                .filter(|_| material.emissive_factor.0 != [0.0; 3])
+                .map(|i| {
+                    (
+                        "emissive",
+                        i.index.value(),
+                        uv_source(i.tex_coord, transform_of(i).as_ref()),
+                        false,
+                    )
+                }),
         ];
         let mut maps = MaterialMaps::NONE;
         let mut dropped = Vec::new();
@@ -212,7 +218,7 @@ impl<'a> Materials<'a> {
             .map_or(1.0, |s| s.emissive_strength.0);
         maps.emissive = material.emissive_factor.0.map(|c| c * strength);
         if maps.emissive == [0.0; 3] {
-            maps.emissive_texture = None; // black times any texture
+            maps.emissive_texture = None; // a zero strength
         }
         if !dropped.is_empty() {
             let name = material.name.as_deref().map_or(String::new(), |n| format!(" ({n})"));
@@ -311,7 +317,20 @@ impl<'a> Materials<'a> {
             .images
             .get(image_index)
             .ok_or_else(|| input(format!("{what} uses image {image_index}, which does not exist")))?;
-        let pixels = self.decode(image, image_index, index)?;
+        let core = texture.source.value();
+        let pixels = match self.decode(image, image_index, index) {
+            // An extension's image that does not decode falls back to the core image, as a
+            // viewer without the extension would show (a file that requires it has no other).
+            Err(problem) if image_index != core && self.root.images.get(core).is_some() => {
+                let reason = match &problem {
+                    super::Problem::Input(m) | super::Problem::Unsupported(m) => m.clone(),
+                };
+                self.dropped_maps
+                    .push(format!("{what}: {reason}; using its fallback image {core}"));
+                self.decode(&self.root.images[core], core, index)?
+            }
+            result => result?,
+        };
         let (wrap_u, wrap_v) = match texture.sampler {
             None => (Wrap::Repeat, Wrap::Repeat),
             Some(s) => {

@@ -67,13 +67,18 @@ type ShadowKey = (Option<u32>, u32);
 impl PreparedScene {
     pub fn new(scene: Scene) -> PreparedScene {
         let mut line = 0;
-        let linear = &scene.surface_maps.linear_textures;
+        let mut linear = vec![false; scene.textures.len()];
+        for &t in &scene.surface_maps.linear_textures {
+            if let Some(flag) = linear.get_mut(t as usize) {
+                *flag = true;
+            }
+        }
         let textures = scene
             .textures
             .iter()
             .enumerate()
             .map(|(i, t)| {
-                let (m, next) = MipTexture::build(t, line, !linear.contains(&(i as u32)));
+                let (m, next) = MipTexture::build(t, line, !linear[i]);
                 line = next;
                 m
             })

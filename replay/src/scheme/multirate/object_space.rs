@@ -26,7 +26,7 @@ use crate::memory::AccessLog;
 use crate::raster::pixel_center;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
 use crate::scheme::{ShadeQuad, UnitContext};
-use crate::shader::Effects;
+use crate::shader::{Effects, SurfacePoint};
 
 /// Coarsest lattice level (a cell spans 2^16 parameter units).
 const MIN_LEVEL: i32 = -16;
@@ -345,13 +345,19 @@ impl MultirateJob {
                 cache.counters.blocks_skipped += 1;
             }
             let barys: [Vec3; 4] = std::array::from_fn(|i| frame.shading_bary(cell.corner_param(i), cell.level));
-            let tangents = match ctx.needs_tangents() {
-                true => barys.map(|b| ctx.tangent_at_bary(b)),
-                false => [Vec4::ZERO; 4],
+            // Where the corners sample the surface maps; nothing to interpolate without any.
+            let surfaces = match ctx.env.maps.of(ctx.triangle.material).is_empty() {
+                true => [SurfacePoint::default(); 4],
+                false => {
+                    let tangents = match ctx.needs_tangents() {
+                        true => barys.map(|b| ctx.tangent_at_bary(b)),
+                        false => [Vec4::ZERO; 4],
+                    };
+                    corner_surfaces(&barys.map(|b| ctx.interpolate(b)), tangents)
+                }
             };
-            let surfaces = corner_surfaces(&barys.map(|b| ctx.interpolate(b)), tangents);
             for i in (0..4).filter(|&i| missing[i]) {
-                let bary = frame.shading_bary(cell.corner_param(i), cell.level);
+                let bary = barys[i];
                 let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
                 let g = ctx.geometry;
                 positions[i] = g.positions[a] * bary.x + g.positions[c] * bary.y + g.positions[d] * bary.z;
