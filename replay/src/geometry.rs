@@ -31,6 +31,16 @@ pub struct FrameGeometry {
 }
 
 impl FrameGeometry {
+    /// The tangent at barycentrics `b` of `vertices` (zero when no mesh has tangents).
+    pub fn tangent(&self, vertices: [u32; 3], b: Vec3) -> Vec4 {
+        let t = &self.tangents;
+        if t.is_empty() {
+            return Vec4::ZERO;
+        }
+        let [i, j, k] = vertices.map(|v| v as usize);
+        t[i] * b.x + t[j] * b.y + t[k] * b.z
+    }
+
     pub fn build(scene: &Scene, frame: &Frame) -> FrameGeometry {
         let mut g = FrameGeometry::default();
         // Tangents only when some mesh has them (a normal map): none are built otherwise.

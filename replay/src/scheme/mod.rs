@@ -124,12 +124,7 @@ impl UnitContext<'_> {
 
     /// The tangent at barycentrics `b` of the triangle's vertices (zero without tangents).
     pub fn tangent_at_bary(&self, b: Vec3) -> Vec4 {
-        let t = &self.geometry.tangents;
-        if t.is_empty() {
-            return Vec4::ZERO;
-        }
-        let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
-        t[i] * b.x + t[j] * b.y + t[k] * b.z
+        self.geometry.tangent(self.triangle.vertices, b)
     }
 
     /// Heat-map id of a pixel (`u32::MAX` outside the view).

@@ -512,7 +512,7 @@ impl ReprojectionJob {
             uv,
             duv_dx: Vec2::new(scale, 0.0),
             duv_dy: Vec2::new(0.0, scale),
-            tangent: trace::hit_tangent(g, [i, j, k], Vec3::new(w, hit.u, hit.v)),
+            tangent: g.tangent(triangle.vertices, Vec3::new(w, hit.u, hit.v)),
         };
         let surface = ctx
             .env
@@ -632,7 +632,7 @@ fn specular_error(ctx: &ViewContext, warped: &[Option<(Vec4, u32, Vec2)>]) -> Sp
             .surface(material, uv, Vec2::ZERO, Vec2::ZERO, &mut blocks, &mut log);
         let at = SurfacePoint {
             uv,
-            tangent: trace::hit_tangent(g, [i, j, k], Vec3::new(w, hit.u, hit.v)),
+            tangent: g.tangent(triangle.vertices, Vec3::new(w, hit.u, hit.v)),
             ..SurfacePoint::default()
         };
         let mut colours = [[0u8; 3]; 2];

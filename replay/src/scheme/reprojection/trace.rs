@@ -4,7 +4,7 @@
 //! whatever the tree. Single-sided surfaces are culled from behind, as the rasterizer culls
 //! their back faces.
 
-use glam::{DMat4, DVec4, Mat4, Vec3, Vec4};
+use glam::{DMat4, DVec4, Mat4, Vec3};
 
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, Stream, LINE_BYTES};
@@ -199,12 +199,4 @@ pub fn ray_through(view_projection: Mat4, (width, height): (u32, u32), x: f32, y
     };
     let (near, far) = (point(0.0), point(1.0));
     (near.as_vec3(), (far - near).normalize_or_zero().as_vec3())
-}
-
-/// The tangent at barycentrics `b` of vertices `v` (zero when the scene has no normal map).
-pub fn hit_tangent(g: &FrameGeometry, v: [usize; 3], b: Vec3) -> Vec4 {
-    if g.tangents.is_empty() {
-        return Vec4::ZERO;
-    }
-    g.tangents[v[0]] * b.x + g.tangents[v[1]] * b.y + g.tangents[v[2]] * b.z
 }
