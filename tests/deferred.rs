@@ -14,6 +14,20 @@ fn replay(preset: &str, extra: &[&str]) -> Value {
     replay_into(&trace("spheres"), preset, &args, None, &dir.path().join("out"))
 }
 
+/// Frame 0 of spheres at 96x108 under `preset` and MSAA `msaa`, written into `dir`: its
+/// results and its stereo picture's bytes.
+fn spheres_frame(dir: &std::path::Path, preset: &str, msaa: &str) -> (serde_json::Value, Vec<u8>) {
+    let out = dir.join(format!("{preset}-{msaa}"));
+    let r = replay_into(
+        &trace("spheres"),
+        preset,
+        &["--res", "96x108", "--frames", "0", "--msaa", msaa],
+        None,
+        &out,
+    );
+    (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
+}
+
 #[test]
 fn deferred_reports_its_g_buffer_and_loses_only_quantization() {
     let r = replay("deferred", &[]);
@@ -117,17 +131,7 @@ fn light_lists_keep_the_pixels_and_cut_the_lighting() {
 fn the_visibility_buffer_gives_forwards_pixels() {
     let dir = tempfile::tempdir().unwrap();
     for msaa in ["1", "4"] {
-        let run = |preset: &str| {
-            let out = dir.path().join(format!("{preset}-{msaa}"));
-            let r = replay_into(
-                &trace("spheres"),
-                preset,
-                &["--res", "96x108", "--frames", "0", "--msaa", msaa],
-                None,
-                &out,
-            );
-            (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
-        };
+        let run = |preset: &str| spheres_frame(dir.path(), preset, msaa);
         let ((vis, vis_pixels), (_, forward_pixels)) = (run("visbuffer"), run("forward"));
         assert!(
             vis_pixels == forward_pixels,
@@ -176,17 +180,7 @@ fn binned_schedulers_light_tiles_while_their_g_buffer_is_on_chip() {
 #[test]
 fn dais_keeps_forwards_pixels_and_counts_its_buffers() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |preset: &str, msaa: &str| {
-        let out = dir.path().join(format!("{preset}-{msaa}"));
-        let r = replay_into(
-            &trace("spheres"),
-            preset,
-            &["--res", "96x108", "--frames", "0", "--msaa", msaa],
-            None,
-            &out,
-        );
-        (r, std::fs::read(out.join("frame0000-stereo.png")).unwrap())
-    };
+    let run = |preset: &str, msaa: &str| spheres_frame(dir.path(), preset, msaa);
     let (dais, _) = run("dais", "1");
     for view in dais["frames"][0]["views"].as_array().unwrap() {
         let q = &view["quality"];

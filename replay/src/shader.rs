@@ -214,8 +214,7 @@ impl ShaderEnv<'_> {
             None => (material.specular_exponent, material.specular_strength),
             Some((texture, roughness, metallic)) => {
                 blocks.take(Block::MetallicRoughnessMap);
-                let s = &inp.surface;
-                let texel = self.textures[texture as usize].sample(s.uv, s.duv_dx, s.duv_dy, log);
+                let texel = self.sample_map(texture, &inp.surface, log);
                 phong_from_metallic_roughness(roughness * texel.y, metallic * texel.z)
             }
         };
@@ -352,7 +351,7 @@ impl ShaderEnv<'_> {
     /// `scale`) in the frame of the tangent, the bitangent `cross(n, t) * w` and `n`. A
     /// point without a usable tangent keeps `n`.
     fn normal_mapped(&self, n: Vec3, at: &SurfacePoint, texture: u32, scale: f32, log: &mut AccessLog) -> Vec3 {
-        let texel = self.textures[texture as usize].sample(at.uv, at.duv_dx, at.duv_dy, log);
+        let texel = self.sample_map(texture, at, log);
         let tangent = at.tangent.truncate();
         let Some(t) = (tangent - n * n.dot(tangent)).try_normalize() else {
             return n;
@@ -391,23 +390,20 @@ impl ShaderEnv<'_> {
         }
     }
 
-    /// The fine surface: [`ShaderEnv::albedo`], and the occlusion and emission of the
-    /// material's maps (nothing more for a material without them).
+    /// A surface map's trilinear sample where `at` says.
+    fn sample_map(&self, texture: u32, at: &SurfacePoint, log: &mut AccessLog) -> Vec4 {
+        self.textures[texture as usize].sample(at.uv, at.duv_dx, at.duv_dy, log)
+    }
+
+    /// The fine surface at `at`: [`ShaderEnv::albedo`], and the occlusion and emission of
+    /// the material's maps (nothing more for a material without them).
     #[inline]
-    pub fn surface(
-        &self,
-        material: u32,
-        uv: Vec2,
-        duv_dx: Vec2,
-        duv_dy: Vec2,
-        blocks: &mut BlockSet,
-        log: &mut AccessLog,
-    ) -> Surface {
-        let mut surface = Surface::of_albedo(self.albedo(material, uv, duv_dx, duv_dy, blocks, log));
+    pub fn surface(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Surface {
+        let mut surface = Surface::of_albedo(self.albedo(material, at.uv, at.duv_dx, at.duv_dy, blocks, log));
         let maps = self.maps.of(material);
         if let Some((texture, strength)) = maps.occlusion {
             blocks.take(Block::OcclusionMap);
-            let ao = self.textures[texture as usize].sample(uv, duv_dx, duv_dy, log).x;
+            let ao = self.sample_map(texture, at, log).x;
             surface.occlusion = 1.0 + strength * (ao - 1.0);
         }
         let emissive = Vec3::from_array(maps.emissive);
@@ -415,10 +411,7 @@ impl ShaderEnv<'_> {
             surface.emission = match maps.emissive_texture {
                 Some(texture) => {
                     blocks.take(Block::EmissiveTextured);
-                    emissive
-                        * self.textures[texture as usize]
-                            .sample(uv, duv_dx, duv_dy, log)
-                            .truncate()
+                    emissive * self.sample_map(texture, at, log).truncate()
                 }
                 None => {
                     blocks.take(Block::EmissiveConstant);

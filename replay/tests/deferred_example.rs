@@ -12,7 +12,7 @@ use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
     Accounting, Passes, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext,
 };
-use shadetrace_replay::shader::{compose, LightingInputs, SurfacePoint};
+use shadetrace_replay::shader::{compose, LightingInputs};
 use shadetrace_replay::{load_trace, ReplayOptions};
 
 struct DeferredPerPixel;
@@ -54,17 +54,10 @@ impl DeferredJob {
             normal: lane.normal,
             eye: ctx.eye,
             material,
-            surface: SurfacePoint {
-                uv: lane.uv,
-                duv_dx,
-                duv_dy,
-                tangent: ctx.tangent(x, y),
-            },
+            surface: ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y),
         };
         let lighting = ctx.env.lighting(&inputs, &mut self.blocks, acc.log);
-        let surface = ctx
-            .env
-            .surface(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
+        let surface = ctx.env.surface(material, &inputs.surface, &mut self.blocks, acc.log);
         let color = compose(&surface, lighting, &mut self.blocks);
         self.packer.lane(
             &self.blocks,

@@ -168,27 +168,21 @@ fn decode(c: &Compressed, source: &[u8]) -> Result<Vec<u8>, String> {
             if triangles && count % 3 != 0 {
                 return Err(format!("TRIANGLES count {count} is not a multiple of 3"));
             }
-            match stride {
-                2 => {
-                    let indices: Vec<u16> = if triangles {
-                        meshopt::decode_index_buffer(source, count)
-                    } else {
-                        meshopt::decode_index_sequence(source, count)
-                    }
-                    .map_err(corrupt)?;
-                    Ok(indices.iter().flat_map(|i| i.to_le_bytes()).collect())
-                }
-                4 => {
-                    let indices: Vec<u32> = if triangles {
-                        meshopt::decode_index_buffer(source, count)
-                    } else {
-                        meshopt::decode_index_sequence(source, count)
-                    }
-                    .map_err(corrupt)?;
-                    Ok(indices.iter().flat_map(|i| i.to_le_bytes()).collect())
-                }
-                _ => Err(format!("index byteStride {stride} is neither 2 nor 4")),
+            if stride != 2 && stride != 4 {
+                return Err(format!("index byteStride {stride} is neither 2 nor 4"));
             }
+            // The codecs do not depend on the output width (meshoptimizer narrows each
+            // index when it writes 16 bits): decode 32-bit, then write `stride` bytes each.
+            let indices: Vec<u32> = if triangles {
+                meshopt::decode_index_buffer(source, count)
+            } else {
+                meshopt::decode_index_sequence(source, count)
+            }
+            .map_err(corrupt)?;
+            Ok(indices
+                .iter()
+                .flat_map(|i| i.to_le_bytes().into_iter().take(stride))
+                .collect())
         }
     }
 }

@@ -508,6 +508,21 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
 mod tests {
     use super::*;
 
+    /// One-line framebuffer, triangle and texture caches; 4 KiB for the others.
+    fn tiny_caches(memo_entries: u64) -> CacheSizes {
+        CacheSizes {
+            depth: LINE_BYTES,
+            color: LINE_BYTES,
+            triangle_data: LINE_BYTES,
+            texture: LINE_BYTES,
+            gbuffer: 4096,
+            visibility: 4096,
+            triangle_buffer: 4096,
+            bvh: 4096,
+            memo_entries,
+        }
+    }
+
     fn log(entries: &[(Stream, u64, bool)]) -> AccessLog {
         let mut l = AccessLog::new();
         l.begin(0);
@@ -529,17 +544,7 @@ mod tests {
 
     #[test]
     fn fast_clear_and_writebacks() {
-        let sizes = CacheSizes {
-            depth: LINE_BYTES,
-            color: LINE_BYTES,
-            triangle_data: LINE_BYTES,
-            texture: LINE_BYTES,
-            gbuffer: 4096,
-            visibility: 4096,
-            triangle_buffer: 4096,
-            bvh: 4096,
-            memo_entries: 0,
-        };
+        let sizes = tiny_caches(0);
         // Depth line 7 written, evicted by 8, read again: one writeback, one real fill.
         let l = log(&[
             (Stream::Depth, 7, true),
@@ -577,17 +582,7 @@ mod tests {
             (Stream::TriangleBuffer, 4, false),
             (Stream::TriangleBuffer, 3, false),
         ]);
-        let sizes = CacheSizes {
-            depth: LINE_BYTES,
-            color: LINE_BYTES,
-            triangle_data: LINE_BYTES,
-            texture: LINE_BYTES,
-            gbuffer: 4096,
-            visibility: 4096,
-            triangle_buffer: 4096,
-            bvh: 4096,
-            memo_entries: 4,
-        };
+        let sizes = tiny_caches(4);
         let replayed = simulate(sizes, &[(&l, 0)]);
         let memo = replayed.memo.expect("lookups were logged");
         assert_eq!(memo.misses, [4, 1]);

@@ -392,20 +392,8 @@ pub(super) fn refetched_surface(
     }
     let (qx, qy) = (x & !1, y & !1);
     let [a, b, c] = [(qx, qy), (qx + 1, qy), (qx, qy + 1)].map(|(u, v)| unit.attributes(u, v).uv);
-    let at = SurfacePoint {
-        uv: own.uv,
-        duv_dx: b - a,
-        duv_dy: c - a,
-        tangent: if unit.needs_tangents() {
-            unit.tangent(x, y)
-        } else {
-            Vec4::ZERO
-        },
-    };
-    let surface = unit
-        .env
-        .surface(unit.triangle.material, own.uv, at.duv_dx, at.duv_dy, blocks, log);
-    (surface, at)
+    let at = unit.surface_point(own.uv, b - a, c - a, x, y);
+    (unit.env.surface(unit.triangle.material, &at, blocks, log), at)
 }
 
 /// The world-to-clip matrix of the tile's view.

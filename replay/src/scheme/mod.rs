@@ -25,7 +25,7 @@ use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
 use crate::pipeline::{Counters, SampleBuffer};
 use crate::raster::pixel_center;
-use crate::shader::ShaderEnv;
+use crate::shader::{ShaderEnv, SurfacePoint};
 use crate::vertex_stage::SetupTriangle;
 
 /// A quad with at least one sample that passed the depth test.
@@ -102,6 +102,23 @@ impl UnitContext<'_> {
             position: g.positions[i] * b.x + g.positions[j] * b.y + g.positions[k] * b.z,
             normal: g.normals[i] * b.x + g.normals[j] * b.y + g.normals[k] * b.z,
             uv: g.uvs[i] * b.x + g.uvs[j] * b.y + g.uvs[k] * b.z,
+        }
+    }
+
+    /// Where lane (`x`, `y`), at `uv` with its quad's derivatives, samples the surface maps
+    /// (the tangent only where a normal map reads it).
+    #[inline]
+    pub fn surface_point(&self, uv: Vec2, duv_dx: Vec2, duv_dy: Vec2, x: u32, y: u32) -> SurfacePoint {
+        let tangent = if self.needs_tangents() {
+            self.tangent(x, y)
+        } else {
+            Vec4::ZERO
+        };
+        SurfacePoint {
+            uv,
+            duv_dx,
+            duv_dy,
+            tangent,
         }
     }
 

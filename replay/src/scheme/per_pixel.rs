@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, LightingInputs, SurfacePoint};
+use crate::shader::{compose, LightingInputs};
 
 pub struct PerPixel;
 
@@ -80,7 +80,6 @@ impl SchemeJob for PerPixelJob {
         acc: &mut Accounting,
     ) {
         let material = ctx.triangle.material;
-        let tangents = ctx.needs_tangents();
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
             let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
@@ -90,17 +89,13 @@ impl SchemeJob for PerPixelJob {
             for (l, lane) in lanes.iter().enumerate() {
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 self.blocks.clear();
+                let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
                 let inputs = LightingInputs {
                     position: lane.position,
                     normal: lane.normal,
                     eye: ctx.eye,
                     material,
-                    surface: SurfacePoint {
-                        uv: lane.uv,
-                        duv_dx,
-                        duv_dy,
-                        tangent: if tangents { ctx.tangent(x, y) } else { Vec4::ZERO },
-                    },
+                    surface: at,
                 };
                 let lighting = match &self.lists {
                     None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
@@ -110,9 +105,7 @@ impl SchemeJob for PerPixelJob {
                         ctx.env.lighting_listed(&inputs, list, &mut self.blocks, acc.log)
                     }
                 };
-                let surface = ctx
-                    .env
-                    .surface(material, lane.uv, duv_dx, duv_dy, &mut self.blocks, acc.log);
+                let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
                 out[l] = compose(&surface, lighting, &mut self.blocks);
                 let useful = quad.lanes & (1 << l) != 0;
                 self.packer

@@ -426,28 +426,20 @@ impl MultirateJob {
             let f = self.fine_lane();
             let lane_blocks = &mut self.fine_lanes[f].blocks;
             lane_blocks.take(Block::Resample);
+            let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
             if !refine.is_empty() {
                 let inputs = LightingInputs {
                     position: lane.position,
                     normal: lane.normal,
                     eye: ctx.eye,
                     material,
-                    surface: SurfacePoint {
-                        uv: lane.uv,
-                        duv_dx,
-                        duv_dy,
-                        tangent: if ctx.needs_tangents() {
-                            ctx.tangent(x, y)
-                        } else {
-                            Vec4::ZERO
-                        },
-                    },
+                    surface: at,
                 };
                 ctx.env
                     .light_terms(&inputs, refine, &mut self.terms, lane_blocks, acc.log);
             }
             let lighting = ctx.env.combine(&self.terms);
-            let surface = ctx.env.surface(material, lane.uv, duv_dx, duv_dy, lane_blocks, acc.log);
+            let surface = ctx.env.surface(material, &at, lane_blocks, acc.log);
             out[l] = compose(&surface, lighting, lane_blocks);
             let useful = quad.lanes & (1 << l) != 0;
             let pixel = ctx.pixel_id(x, y);

@@ -514,9 +514,7 @@ impl ReprojectionJob {
             duv_dy: Vec2::new(0.0, scale),
             tangent: g.tangent(triangle.vertices, Vec3::new(w, hit.u, hit.v)),
         };
-        let surface = ctx
-            .env
-            .surface(material, uv, at.duv_dx, at.duv_dy, &mut self.blocks, acc.log);
+        let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
         let inputs = LightingInputs {
             position,
             normal,
@@ -627,14 +625,12 @@ fn specular_error(ctx: &ViewContext, warped: &[Option<(Vec4, u32, Vec2)>]) -> Sp
         let normal = g.normals[i] * w + g.normals[j] * hit.u + g.normals[k] * hit.v;
         let uv = g.uvs[i] * w + g.uvs[j] * hit.u + g.uvs[k] * hit.v;
         let material = triangle.material;
-        let surface = ctx
-            .env
-            .surface(material, uv, Vec2::ZERO, Vec2::ZERO, &mut blocks, &mut log);
         let at = SurfacePoint {
             uv,
             tangent: g.tangent(triangle.vertices, Vec3::new(w, hit.u, hit.v)),
             ..SurfacePoint::default()
         };
+        let surface = ctx.env.surface(material, &at, &mut blocks, &mut log);
         let mut colours = [[0u8; 3]; 2];
         for (colour, eye) in colours.iter_mut().zip(ctx.eyes) {
             let inputs = LightingInputs {
