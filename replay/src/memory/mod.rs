@@ -155,7 +155,7 @@ impl AccessLog {
     }
 
     /// Stream `s`'s accesses of segment `i`.
-    fn stream(&self, i: usize, s: usize) -> &[u32] {
+    pub(crate) fn stream(&self, i: usize, s: usize) -> &[u32] {
         let start = self.segments[i].start[s];
         let end = self
             .segments
