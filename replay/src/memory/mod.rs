@@ -217,6 +217,31 @@ struct Cache {
     stats: CacheStats,
 }
 
+#[inline]
+fn set_of(line: u64, sets: u64, set_mask: Option<u64>) -> u64 {
+    match set_mask {
+        Some(mask) => line & mask,
+        None => line % sets,
+    }
+}
+
+/// The sets of one part of a cache, apart from the cache's state.
+#[derive(Clone, Copy)]
+struct PartFilter {
+    sets: u64,
+    set_mask: Option<u64>,
+    part: u64,
+    parts: u64,
+}
+
+impl PartFilter {
+    /// Whether `line` maps to a set of the part (`parts` is a power of two).
+    #[inline]
+    fn holds(&self, line: u64) -> bool {
+        self.parts == 1 || set_of(line, self.sets, self.set_mask) & (self.parts - 1) == self.part
+    }
+}
+
 /// A slot's dirty bit (tags stay below 2^61).
 const DIRTY: u64 = 1 << 63;
 
@@ -247,16 +272,17 @@ impl Cache {
 
     #[inline]
     fn set_of(&self, line: u64) -> u64 {
-        match self.set_mask {
-            Some(mask) => line & mask,
-            None => line % self.sets,
-        }
+        set_of(line, self.sets, self.set_mask)
     }
 
-    /// Whether `line` maps to a set this part holds (`parts` is a power of two).
-    #[inline]
-    fn holds(&self, line: u64) -> bool {
-        self.parts == 1 || self.set_of(line) & (self.parts - 1) == self.part
+    /// Which lines map to the sets this part holds.
+    fn part_filter(&self) -> PartFilter {
+        PartFilter {
+            sets: self.sets,
+            set_mask: self.set_mask,
+            part: self.part,
+            parts: self.parts,
+        }
     }
 
     /// Accesses `line`; returns (miss, evicted dirty line).
@@ -267,6 +293,12 @@ impl Cache {
         let slots = &mut self.slots[base..base + self.ways];
         let tag = line + 1;
         let dirty = if write { DIRTY } else { 0 };
+        // A hit on the most recently used line changes nothing but its dirty bit: the
+        // common case (a texture footprint alternates between lines of different sets).
+        if slots[0] & !DIRTY == tag {
+            slots[0] |= dirty;
+            return (false, false);
+        }
         // Move to front: the slots before the hit (or all but the last, on a miss) shift
         // back by one.
         let (hit, last) = match slots.iter().position(|&s| s & !DIRTY == tag) {
@@ -392,7 +424,14 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
     // A power of two, so that a set's part is a mask of its index.
     let parts = 1u64 << rayon::current_num_threads().max(1).ilog2();
     let run_part = |stream: Stream, bytes: u64, part: u64| {
+        if segments
+            .iter()
+            .all(|&(log, i)| log.stream(i, stream as usize).is_empty())
+        {
+            return (0, 0, CacheStats::default());
+        }
         let mut cache = Cache::part(bytes, part, parts);
+        let filter = cache.part_filter();
         let mut written = LineSet::default();
         let mut dram_lines = 0u64;
         let mut writebacks = 0u64;
@@ -401,9 +440,6 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
             Stream::Depth | Stream::Color | Stream::GBuffer | Stream::Visibility
         );
         let mut access = |line: u64, write: bool| {
-            if !cache.holds(line) {
-                return;
-            }
             let (miss, evicted_dirty) = cache.access(line, write);
             if miss {
                 if framebuffer && !written.contains(line) {
@@ -419,16 +455,36 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                 written.insert(line);
             }
         };
+        let mut held = [0u32; 256];
         for &(log, i) in segments {
-            for &entry in log.stream(i, stream as usize) {
-                let line = u64::from(entry & LINE_MASK);
-                let write = entry & WRITE_BIT != 0;
-                if stream == Stream::TriangleBuffer {
-                    if let Some((first, last)) = slots.lines(line) {
-                        (first..=last).for_each(|l| access(l, write));
+            let entries = log.stream(i, stream as usize);
+            if stream == Stream::TriangleBuffer {
+                for &entry in entries {
+                    let write = entry & WRITE_BIT != 0;
+                    if let Some((first, last)) = slots.lines(u64::from(entry & LINE_MASK)) {
+                        (first..=last)
+                            .filter(|&l| filter.holds(l))
+                            .for_each(|l| access(l, write));
                     }
-                } else {
-                    access(line, write);
+                }
+                continue;
+            }
+            if parts == 1 {
+                for &entry in entries {
+                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
+                }
+                continue;
+            }
+            // This part's entries, picked without a branch per entry (half of them would
+            // mispredict), then replayed.
+            for block in entries.chunks(held.len()) {
+                let mut n = 0;
+                for &entry in block {
+                    held[n] = entry;
+                    n += usize::from(filter.holds(u64::from(entry & LINE_MASK)));
+                }
+                for &entry in &held[..n] {
+                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
                 }
             }
         }
