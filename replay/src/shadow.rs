@@ -187,14 +187,17 @@ impl ShadowMap {
             // of texels in one or two blocks (the same accesses, in the same order).
             let x0 = (tx - PCF_RADIUS) as u32;
             let (b0, b1) = (x0 / BLOCK, (x0 + PCF_TAPS as u32 - 1) / BLOCK);
-            let rows =
-                ((ty - PCF_RADIUS).clamp(0, last) as u32 / BLOCK)..=((ty + PCF_RADIUS).clamp(0, last) as u32 / BLOCK);
-            let (near, far) = rows
-                .flat_map(|by| (b0..=b1).map(move |bx| (by * blocks_x + bx) as usize))
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), b| {
-                    let (bl, bh) = self.block_ranges[b];
-                    (lo.min(bl), hi.max(bh))
-                });
+            let (by0, by1) = (
+                (ty - PCF_RADIUS).clamp(0, last) as u32 / BLOCK,
+                (ty + PCF_RADIUS).clamp(0, last) as u32 / BLOCK,
+            );
+            let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
+            for by in [by0, by1] {
+                for bx in [b0, b1] {
+                    let (lo, hi) = self.block_ranges[(by * blocks_x + bx) as usize];
+                    (near, far) = (near.min(lo), far.max(hi));
+                }
+            }
             // Every tap compares alike: the count is known without the taps.
             let decided = if receiver <= near {
                 Some(1.0)

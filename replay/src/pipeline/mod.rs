@@ -390,19 +390,24 @@ fn memory_pass(
     outputs: &[JobOutput],
     view_pass: Option<&[JobOutput]>,
 ) -> Replayed {
-    let mut order: Vec<(u8, [u64; 4], usize, usize)> = Vec::new();
-    for (j, out) in outputs.iter().enumerate() {
-        for (segment, index) in out.log.segments() {
-            let key = match jobs[j].commands[index] {
-                Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, index)),
-                Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, index)),
-                Command::ShadeTile { view, tile } => scheduler.tile_pass_key(view, tile, j, index),
-                Command::BeginSequence => continue,
-            };
-            order.push((key.0, key.1, j, segment));
-        }
-    }
-    order.sort_unstable();
+    // Keys are unique (they end in the job and segment), so the parallel sort's order is
+    // the one order there is.
+    let mut order: Vec<(u8, [u64; 4], usize, usize)> = outputs
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(j, out)| {
+            out.log.segments().filter_map(move |(segment, index)| {
+                let key = match jobs[j].commands[index] {
+                    Command::DepthPrepass(u) => (0, scheduler.issue_key(&u, 0, j, index)),
+                    Command::Draw(u) | Command::Visibility(u) => (0, scheduler.issue_key(&u, 1, j, index)),
+                    Command::ShadeTile { view, tile } => scheduler.tile_pass_key(view, tile, j, index),
+                    Command::BeginSequence => return None,
+                };
+                Some((key.0, key.1, j, segment))
+            })
+        })
+        .collect();
+    order.par_sort_unstable();
     let mut ordered: Vec<LogSegment> = order
         .iter()
         .map(|&(_, _, j, segment)| (&outputs[j].log, segment))
