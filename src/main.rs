@@ -1,5 +1,6 @@
 //! The `shadetrace` command line: a thin layer over the capture, formats and replay crates.
 
+mod allocator;
 mod commands;
 mod golden;
 mod progress;
@@ -47,6 +48,7 @@ fn main() -> ExitCode {
     // Panics capture contains (a decoder's, on a corrupt file) become one-line errors;
     // print only the others.
     shadetrace_capture::contained::quiet_contained_panics();
+    allocator::keep_freed_memory();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Capture(args) => commands::capture::run(args),
