@@ -60,16 +60,19 @@ impl ShadowMap {
         let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
         let view_projection = proj * view;
         let (tris, vstats) = setup_view(geometry, &vec![true; materials], view_projection, size, size);
-        let bands: Vec<Vec<f32>> = (0..size.div_ceil(BAND))
-            .into_par_iter()
-            .map(|band| {
+        // Cleared in parallel: the first touch of 16 MiB is itself worth spreading.
+        let mut depth: Vec<f32> = (0..size * size).into_par_iter().map(|_| 1.0).collect();
+        let texels_written: u64 = depth
+            .par_chunks_mut((BAND * size) as usize)
+            .enumerate()
+            .map(|(band, depth)| {
+                let band = band as u32;
                 let rect = Rect {
                     x0: 0,
                     y0: band * BAND,
                     x1: size,
                     y1: ((band + 1) * BAND).min(size),
                 };
-                let mut depth = vec![1.0f32; ((rect.y1 - rect.y0) * size) as usize];
                 let offsets = sample_offsets(1);
                 for t in tris.iter().filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
                     rasterize(t, rect, offsets, |q| {
@@ -85,11 +88,9 @@ impl ShadowMap {
                         }
                     });
                 }
-                depth
+                depth.iter().filter(|&&d| d < 1.0).count() as u64
             })
-            .collect();
-        let depth: Vec<f32> = bands.concat();
-        let texels_written = depth.iter().filter(|&&d| d < 1.0).count() as u64;
+            .sum();
         let block_ranges = block_ranges(&depth, size);
         ShadowMap {
             size,
