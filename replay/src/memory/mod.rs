@@ -72,11 +72,22 @@ pub fn memo_key(view: u8, tri: u32) -> u64 {
     u64::from(tri) << 1 | u64::from(view & 1)
 }
 
-/// Log entries are 32-bit: a line number below 2^31 and a write bit. Every stream's address
-/// space fits: the largest, texture, holds at most a trace's 4 GiB Textures chunk with its
-/// mips and the shadow map, about 2^25 lines.
+/// Log entries are 32-bit: a line number below [`REPEAT_BASE`] and a write bit. Every
+/// stream's address space fits: the largest, texture, holds at most a trace's 4 GiB Textures
+/// chunk with its mips and the shadow map, about 2^25 lines.
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
+/// Line values from here up are counted repeats, not lines: "the stream's two previous
+/// entries again, `value - REPEAT_BASE + 1` more times" ([`AccessLog::read_pair`]).
+const REPEAT_BASE: u32 = LINE_MASK - 0xFFFF;
+const REPEAT_MAX: u32 = LINE_MASK - REPEAT_BASE + 1;
+
+/// The repeats a log entry stands for, if it is a counted repeat.
+#[inline]
+fn repeat_count(entry: u32) -> Option<u64> {
+    let value = entry & LINE_MASK;
+    (value >= REPEAT_BASE).then(|| u64::from(value - REPEAT_BASE + 1))
+}
 const STREAMS: usize = 9;
 
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
@@ -132,7 +143,7 @@ impl AccessLog {
     #[inline]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
         debug_assert!(
-            line <= u64::from(LINE_MASK),
+            line < u64::from(REPEAT_BASE),
             "line {line} beyond the log's address space"
         );
         let entry = if write { WRITE_BIT } else { 0 } | (line as u32 & LINE_MASK);
@@ -143,6 +154,34 @@ impl AccessLog {
         }
         *last = entry;
         self.entries[s].push(entry);
+    }
+
+    /// Reads `a`, then `b`, `times` times over (`a b a b ...`): a filter footprint's rows
+    /// that each span the same two lines. The same accesses as that many [`Self::touch`]
+    /// pairs, logged as one pair and a counted repeat.
+    pub fn read_pair(&mut self, stream: Stream, a: u64, b: u64, times: u32) {
+        if times == 0 {
+            return;
+        }
+        self.touch(stream, a, false);
+        self.touch(stream, b, false);
+        let s = stream as usize;
+        let entries = &self.entries[s];
+        let start = self.segments.last().map_or(0, |segment| segment.start[s]);
+        let n = entries.len();
+        // The repeat stands for the two entries before it, which must be this pair, logged
+        // in this command (a dropped repeat, a write, or `a == b` leaves others there).
+        let logged = n >= start + 2 && entries[n - 2..] == [a as u32, b as u32];
+        let mut rest = times - 1;
+        while logged && rest > 0 {
+            let step = rest.min(REPEAT_MAX);
+            self.entries[s].push(REPEAT_BASE + step - 1);
+            rest -= step;
+        }
+        for _ in 0..rest {
+            self.touch(stream, a, false);
+            self.touch(stream, b, false);
+        }
     }
 
     /// The segments that made accesses: (segment index, command index), in order.
@@ -162,6 +201,23 @@ impl AccessLog {
             .get(i + 1)
             .map_or(self.entries[s].len(), |next| next.start[s]);
         &self.entries[s][start..end]
+    }
+
+    /// Stream `s`'s accesses of segment `i` with every counted repeat written out: what
+    /// the log stands for.
+    #[cfg(test)]
+    pub(crate) fn expanded(&self, i: usize, stream: Stream) -> Vec<u32> {
+        let mut out: Vec<u32> = Vec::new();
+        for &entry in self.stream(i, stream as usize) {
+            match repeat_count(entry) {
+                Some(times) => {
+                    let pair = [out[out.len() - 2], out[out.len() - 1]];
+                    (0..times).for_each(|_| out.extend(pair));
+                }
+                None => out.push(entry),
+            }
+        }
+        out
     }
 
     pub fn len(&self) -> usize {
@@ -225,11 +281,12 @@ fn set_of(line: u64, sets: u64, set_mask: Option<u64>) -> u64 {
     }
 }
 
-/// The sets of one part of a cache, apart from the cache's state.
+/// The sets of one part of a cache and their shape, apart from the cache's state.
 #[derive(Clone, Copy)]
 struct PartFilter {
     sets: u64,
     set_mask: Option<u64>,
+    ways: usize,
     part: u64,
     parts: u64,
 }
@@ -239,6 +296,13 @@ impl PartFilter {
     #[inline]
     fn holds(&self, line: u64) -> bool {
         self.parts == 1 || set_of(line, self.sets, self.set_mask) & (self.parts - 1) == self.part
+    }
+
+    /// Whether reading `a` and `b` again, right after reading them, hits twice and leaves
+    /// every set as it was: they are the two most recent lines of their set (or each the
+    /// most recent of its own), unless one way holds a set they share.
+    fn repeats_hit(&self, a: u64, b: u64) -> bool {
+        self.ways >= 2 || set_of(a, self.sets, self.set_mask) != set_of(b, self.sets, self.set_mask)
     }
 }
 
@@ -275,11 +339,12 @@ impl Cache {
         set_of(line, self.sets, self.set_mask)
     }
 
-    /// Which lines map to the sets this part holds.
+    /// Which lines map to the sets this part holds, and the shape that decides repeats.
     fn part_filter(&self) -> PartFilter {
         PartFilter {
             sets: self.sets,
             set_mask: self.set_mask,
+            ways: self.ways,
             part: self.part,
             parts: self.parts,
         }
@@ -455,6 +520,9 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                 written.insert(line);
             }
         };
+        // The stream's two previous entries, which a counted repeat repeats.
+        let mut pair = [0u32; 2];
+        let mut repeat_hits = 0u64;
         let mut held = [0u32; 256];
         for &(log, i) in segments {
             let entries = log.stream(i, stream as usize);
@@ -469,25 +537,46 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                 }
                 continue;
             }
-            if parts == 1 {
-                for &entry in entries {
-                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
+            // With parts, this part's entries are picked without a branch per entry (half
+            // of them would mispredict), then replayed.
+            let mut n = 0;
+            for &entry in entries {
+                if let Some(times) = repeat_count(entry) {
+                    let [a, b] = pair.map(|e| u64::from(e & LINE_MASK));
+                    if filter.repeats_hit(a, b) {
+                        repeat_hits += times * (u64::from(filter.holds(a)) + u64::from(filter.holds(b)));
+                        continue;
+                    }
+                    for &e in &held[..n] {
+                        access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                    }
+                    n = 0;
+                    for _ in 0..times {
+                        for e in pair.into_iter().filter(|&e| filter.holds(u64::from(e & LINE_MASK))) {
+                            access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                        }
+                    }
+                    continue;
                 }
-                continue;
+                pair = [pair[1], entry];
+                if parts == 1 {
+                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
+                    continue;
+                }
+                held[n] = entry;
+                n += usize::from(filter.holds(u64::from(entry & LINE_MASK)));
+                if n == held.len() {
+                    for &e in &held {
+                        access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                    }
+                    n = 0;
+                }
             }
-            // This part's entries, picked without a branch per entry (half of them would
-            // mispredict), then replayed.
-            for block in entries.chunks(held.len()) {
-                let mut n = 0;
-                for &entry in block {
-                    held[n] = entry;
-                    n += usize::from(filter.holds(u64::from(entry & LINE_MASK)));
-                }
-                for &entry in &held[..n] {
-                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
-                }
+            for &e in &held[..n] {
+                access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
             }
         }
+        cache.stats.accesses += repeat_hits;
         writebacks += cache.flush();
         (dram_lines, writebacks, cache.stats)
     };
@@ -692,6 +781,58 @@ mod tests {
         let one = with(1);
         for threads in [2, 3, 4, 8] {
             assert_eq!(with(threads), one, "{threads} threads");
+        }
+    }
+
+    /// A counted repeat replays as the pairs it stands for: on every cache shape (one line,
+    /// so one way shared by the pair; sets not a power of two; pairs in one set and in two),
+    /// with any number of parts, and where its pair was partly dropped or written.
+    #[test]
+    fn repeated_pairs_replay_as_the_pairs_written_out() {
+        let mut x = 99u64;
+        let mut next = |n: u64| {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        let (mut counted, mut literal) = (AccessLog::new(), AccessLog::new());
+        for command in 0..3 {
+            counted.begin(command);
+            literal.begin(command);
+            for _ in 0..3000 {
+                let (a, b, times) = (next(200), next(200), next(6) as u32);
+                counted.read_pair(Stream::Texture, a, b, times);
+                for _ in 0..times {
+                    literal.touch(Stream::Texture, a, false);
+                    literal.touch(Stream::Texture, b, false);
+                }
+                if next(4) == 0 {
+                    let (line, write) = (next(200), next(2) == 1);
+                    counted.touch(Stream::Texture, line, write);
+                    literal.touch(Stream::Texture, line, write);
+                }
+            }
+        }
+        // More repeats than one counted entry holds.
+        counted.read_pair(Stream::Texture, 7, 8, REPEAT_MAX + 5);
+        for _ in 0..REPEAT_MAX + 5 {
+            literal.touch(Stream::Texture, 7, false);
+            literal.touch(Stream::Texture, 8, false);
+        }
+        assert!(counted.len() < literal.len(), "no repeat was counted");
+        for lines in [1, 2, 12, 64] {
+            let sizes = CacheSizes {
+                texture: lines * LINE_BYTES,
+                ..tiny_caches(0)
+            };
+            let replay = |log: &AccessLog, threads| {
+                let segments: Vec<LogSegment> = log.segments().map(|(i, _)| (log, i)).collect();
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                pool.install(|| simulate(sizes, &segments))
+            };
+            let expected = replay(&literal, 1);
+            for threads in [1, 2, 4] {
+                assert_eq!(replay(&counted, threads), expected, "{lines} lines, {threads} threads");
+            }
         }
     }
 }
