@@ -7,9 +7,8 @@
 //! entry counts against the budget at the size hardware would store: inputs as f16,
 //! outputs as f32 ([`entry_bytes`]).
 
-use std::collections::BTreeMap;
-
 use glam::Vec3;
+use hashlink::LruCache;
 use shadetrace_formats::results::ShadingCacheStats;
 
 use crate::shader::{Effects, LightTerm};
@@ -19,7 +18,7 @@ pub const DEFAULT_CACHE_BYTES: u32 = 24 * 1024;
 
 /// Where a cached coarse fragment sits: cell `q` at rate `n` in view `view` (screen space),
 /// or cell `q` of grid level `n` on surface `surface` (patch or texture space, view 0).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CacheKey {
     pub qx: i32,
     pub qy: i32,
@@ -48,58 +47,44 @@ pub fn entry_bytes(lights: usize) -> usize {
     8 + 12 + 16 * lights + 4
 }
 
+/// A hash map threaded by recency (`hashlink`): lookups, stores and evictions in constant
+/// time. Nothing iterates it, so the hasher's seed cannot reach a result.
 pub struct ShadingCache {
     capacity: usize,
-    entries: BTreeMap<CacheKey, (CacheEntry, u64)>,
-    by_age: BTreeMap<u64, CacheKey>,
-    clock: u64,
+    entries: LruCache<CacheKey, CacheEntry>,
     pub counters: ShadingCacheStats,
 }
 
 impl ShadingCache {
     pub fn new(bytes: u32, lights: usize) -> ShadingCache {
+        let capacity = bytes as usize / entry_bytes(lights);
         ShadingCache {
-            capacity: bytes as usize / entry_bytes(lights),
-            entries: BTreeMap::new(),
-            by_age: BTreeMap::new(),
-            clock: 0,
+            capacity,
+            entries: LruCache::new(capacity),
             counters: ShadingCacheStats::default(),
         }
     }
 
     pub fn clear(&mut self) {
         self.entries.clear();
-        self.by_age.clear();
     }
 
     /// Looks an entry up, marking it most recently used.
     pub fn get(&mut self, key: &CacheKey) -> Option<&CacheEntry> {
-        let (_, age) = self.entries.get(key)?;
-        let age = *age;
-        self.clock += 1;
-        self.by_age.remove(&age);
-        self.by_age.insert(self.clock, *key);
-        let slot = self.entries.get_mut(key)?;
-        slot.1 = self.clock;
-        Some(&slot.0)
+        self.entries.get(key)
     }
 
-    /// Inserts or replaces an entry, evicting the least recently used when full.
+    /// Inserts or replaces an entry (most recently used), evicting the least recently used
+    /// when full.
     pub fn put(&mut self, key: CacheKey, entry: CacheEntry) {
         if self.capacity == 0 {
             return;
         }
-        if let Some((_, age)) = self.entries.remove(&key) {
-            self.by_age.remove(&age);
-        } else if self.entries.len() >= self.capacity {
-            if let Some((_, oldest)) = self.by_age.pop_first() {
-                self.entries.remove(&oldest);
-                self.counters.evictions += 1;
-            }
+        if self.entries.len() >= self.capacity && !self.entries.contains_key(&key) {
+            self.entries.remove_lru();
+            self.counters.evictions += 1;
         }
-        self.clock += 1;
-        self.by_age.insert(self.clock, key);
-        self.entries.insert(key, (entry, self.clock));
+        self.entries.insert(key, entry);
     }
 }
 
