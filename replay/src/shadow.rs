@@ -2,6 +2,8 @@
 //! the scene bounds, rendered with the shared vertex stage and rasterizer (no culling), and
 //! looked up with 5x5 percentage-closer filtering.
 
+use std::sync::{Arc, Mutex};
+
 use glam::{Mat4, Vec3, Vec4Swizzles};
 use rayon::prelude::*;
 use shadetrace_formats::results::ShadowPassStats;
@@ -32,6 +34,9 @@ pub struct ShadowMap {
     /// Depth bias in map depth units per unit of slope.
     texel_depth: f32,
     pub stats: ShadowPassStats,
+    /// Edge-receiver hierarchies already built from this map, by threshold (bits): the map is
+    /// shared by every preset and frame that can use it, and so are they.
+    receivers: Mutex<Vec<(u32, Arc<ReceiverHierarchy>)>>,
 }
 
 impl ShadowMap {
@@ -104,6 +109,7 @@ impl ShadowMap {
                 triangles: vstats.setup_triangles,
                 texels_written,
             },
+            receivers: Mutex::new(Vec::new()),
         }
     }
 
@@ -122,7 +128,19 @@ impl ShadowMap {
     /// The edge-receiver min-max hierarchy of He et al. §4.2 for threshold `delta` (depth
     /// units of the map): texels whose second depth derivative is below `-delta` along x or
     /// y receive shadow edges; each node keeps the depth range of receivers beneath it.
-    pub fn receivers(&self, delta: f32) -> ReceiverHierarchy {
+    /// Built once per map and threshold: every run that shares the map shares it.
+    pub fn receivers(&self, delta: f32) -> Arc<ReceiverHierarchy> {
+        // Runs replay one after another, so the lock is never contended.
+        let mut built = self.receivers.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some((_, hierarchy)) = built.iter().find(|(d, _)| *d == delta.to_bits()) {
+            return hierarchy.clone();
+        }
+        let hierarchy = Arc::new(self.build_receivers(delta));
+        built.push((delta.to_bits(), hierarchy.clone()));
+        hierarchy
+    }
+
+    fn build_receivers(&self, delta: f32) -> ReceiverHierarchy {
         let n = self.size as usize;
         let z = |x: usize, y: usize| self.depth[y * n + x];
         let mut base = vec![(f32::INFINITY, f32::NEG_INFINITY); n * n];
@@ -339,6 +357,7 @@ mod tests {
             base_line: 0,
             texel_depth: 1.0 / size as f32,
             stats: ShadowPassStats::default(),
+            receivers: Mutex::new(Vec::new()),
         }
     }
 

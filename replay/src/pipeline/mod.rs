@@ -163,7 +163,7 @@ pub fn run_frame(
     let geometry = FrameGeometry::build(&prepared.scene, frame);
     clock.lap("geometry");
     let shadow = shadow_pass(prepared, meta, frame.index, &geometry, opts);
-    let receivers: Option<ReceiverHierarchy> = match (&shadow, scheme.edge_receiver_delta()) {
+    let receivers: Option<Arc<ReceiverHierarchy>> = match (&shadow, scheme.edge_receiver_delta()) {
         (Some(map), Some(delta)) => Some(map.receivers(delta)),
         _ => None,
     };
@@ -173,7 +173,7 @@ pub fn run_frame(
         textures: &prepared.textures,
         lights: &prepared.lights,
         shadow: shadow.as_deref(),
-        receivers: receivers.as_ref(),
+        receivers: receivers.as_deref(),
         maps: &prepared.scene.surface_maps,
     };
     // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
