@@ -7,8 +7,6 @@
 //! paper's negative-index tag); triangles that paired nowhere (one view only) run last.
 //! Rows are independent jobs, run in parallel.
 
-use std::collections::BTreeMap;
-
 use rayon::prelude::*;
 
 use super::pairing::{pair_tiles, TileSpan};
@@ -72,31 +70,38 @@ impl TilePair {
         let grid = input.bins.grid;
         let tiles_x = grid.tiles_x;
         let list = |v: usize, x: u32| &input.bins.lists[v][(row * tiles_x + x) as usize];
-        // Covered columns and one setup triangle per primitive, per view.
-        let spans: [BTreeMap<u32, (TileSpan, u32)>; 2] = [0, 1].map(|v| {
-            let mut m: BTreeMap<u32, (TileSpan, u32)> = BTreeMap::new();
-            for x in 0..tiles_x {
-                for &s in list(v, x) {
-                    let prim = input.setups[v][s as usize].prim;
-                    m.entry(prim).and_modify(|e| e.0 .1 = x).or_insert(((x, x), s));
-                }
-            }
-            m
+        // Covered columns and one setup triangle (its first) per primitive, per view, by
+        // primitive.
+        let spans: [Vec<(u32, TileSpan, u32)>; 2] = [0, 1].map(|v| {
+            let mut seen: Vec<(u32, u32, u32)> = (0..tiles_x)
+                .flat_map(|x| {
+                    list(v, x)
+                        .iter()
+                        .map(move |&s| (input.setups[v][s as usize].prim, x, s))
+                })
+                .collect();
+            // Stable: a primitive's occurrences stay in column order.
+            seen.sort_by_key(|&(prim, _, _)| prim);
+            seen.chunk_by(|a, b| a.0 == b.0)
+                .map(|run| (run[0].0, (run[0].1, run[run.len() - 1].1), run[0].2))
+                .collect()
         });
         let rect = grid.rect(row * tiles_x);
         let center_y = (rect.y0 + rect.y1) / 2;
-        let mut pair_lists: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
+        let mut entries: Vec<((u32, u32), u32)> = Vec::new();
         let mut pairs = Vec::new();
-        for (&prim, &(l, ls)) in &spans[0] {
-            let Some(&(r, rs)) = spans[1].get(&prim) else { continue };
+        for &(prim, l, ls) in &spans[0] {
+            let Ok(found) = spans[1].binary_search_by_key(&prim, |&(p, _, _)| p) else {
+                continue;
+            };
+            let (_, r, rs) = spans[1][found];
             pairs.clear();
             let (left, right) = (&input.setups[0][ls as usize], &input.setups[1][rs as usize]);
             pair_tiles(left, right, l, r, center_y, grid.tile, grid.width, &mut pairs);
-            for &p in &pairs {
-                pair_lists.entry(p).or_default().push(prim);
-            }
+            entries.extend(pairs.iter().map(|&p| (p, prim)));
         }
-        let pair_entries = pair_lists.values().map(|l| l.len() as u64).sum();
+        let pair_lists = PairLists::new(entries);
+        let pair_entries = pair_lists.prims.len() as u64;
         let sequences = self.sequences(&pair_lists);
 
         // Units: both tiles of each pair, a triangle once per tile, then the leftovers.
@@ -131,8 +136,8 @@ impl TilePair {
             }
         };
         for (s, sequence) in sequences.iter().enumerate() {
-            for pair in sequence {
-                for &prim in &pair_lists[pair] {
+            for &pair in sequence {
+                for &prim in pair_lists.prims_of(pair) {
                     emit(0, pair.0, Some(prim), s as u32 + 1, &mut commands);
                     emit(1, pair.1, Some(prim), s as u32 + 1, &mut commands);
                 }
@@ -145,31 +150,32 @@ impl TilePair {
         }
         RowSchedule {
             job: Job { commands },
-            pairs: pair_lists.len() as u64,
+            pairs: pair_lists.pairs.len() as u64,
             pair_entries,
         }
     }
 
     /// Sequences of neighbouring pairs by depth-first search from the leftmost unprocessed
     /// pair, ordered nearest first when the disparity order is on.
-    fn sequences(&self, pair_lists: &BTreeMap<(u32, u32), Vec<u32>>) -> Vec<Vec<(u32, u32)>> {
-        let mut processed: BTreeMap<(u32, u32), bool> = pair_lists.keys().map(|&k| (k, false)).collect();
+    fn sequences(&self, pair_lists: &PairLists) -> Vec<Vec<(u32, u32)>> {
+        let pairs = &pair_lists.pairs;
+        let mut processed = vec![false; pairs.len()];
         let mut sequences = Vec::new();
-        for &seed in pair_lists.keys() {
-            if processed[&seed] {
+        for (seed, &seed_pair) in pairs.iter().enumerate() {
+            if processed[seed] {
                 continue;
             }
             let mut sequence = Vec::new();
-            let mut stack = vec![seed];
+            let mut stack = vec![seed_pair];
             while let Some(p) = stack.pop() {
-                match processed.get_mut(&p) {
-                    Some(seen) if !*seen => *seen = true,
+                match pair_lists.index(p) {
+                    Some(i) if !processed[i] => processed[i] = true,
                     _ => continue,
                 }
                 sequence.push(p);
                 let (l, r) = p;
                 for n in [(l, r + 1), (l + 1, r + 1), (l + 1, r)] {
-                    if processed.get(&n) == Some(&false) {
+                    if pair_lists.index(n).is_some_and(|i| !processed[i]) {
                         stack.push(n);
                     }
                 }
@@ -180,6 +186,45 @@ impl TilePair {
             sequences.sort_by_key(|s| std::cmp::Reverse(s[0].0 as i64 - s[0].1 as i64));
         }
         sequences
+    }
+}
+
+/// A row's tile-pair lists: the pairs in order, each with its primitives in the order they
+/// were paired (sorted arrays, searched: a row holds a few hundred pairs).
+struct PairLists {
+    pairs: Vec<(u32, u32)>,
+    /// Where each pair's primitives start in `prims` (one more entry than pairs).
+    starts: Vec<usize>,
+    prims: Vec<u32>,
+}
+
+impl PairLists {
+    /// From (pair, primitive) entries in pairing order.
+    fn new(mut entries: Vec<((u32, u32), u32)>) -> PairLists {
+        // Stable: a pair's primitives keep their pairing order.
+        entries.sort_by_key(|&(pair, _)| pair);
+        let (mut pairs, mut starts) = (Vec::new(), Vec::new());
+        for (i, &(pair, _)) in entries.iter().enumerate() {
+            if pairs.last() != Some(&pair) {
+                pairs.push(pair);
+                starts.push(i);
+            }
+        }
+        starts.push(entries.len());
+        PairLists {
+            pairs,
+            starts,
+            prims: entries.into_iter().map(|(_, prim)| prim).collect(),
+        }
+    }
+
+    fn index(&self, pair: (u32, u32)) -> Option<usize> {
+        self.pairs.binary_search(&pair).ok()
+    }
+
+    fn prims_of(&self, pair: (u32, u32)) -> &[u32] {
+        self.index(pair)
+            .map_or(&[], |i| &self.prims[self.starts[i]..self.starts[i + 1]])
     }
 }
 
