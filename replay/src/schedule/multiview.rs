@@ -4,11 +4,12 @@
 //! their position in the triangle's barycentric space (the same traversal measure as
 //! Algorithm 1), so both views read the same texels close in time. No binning lists.
 
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 
+use rayon::prelude::*;
 use shadetrace_formats::results::ListStats;
 
-use super::pairing::{pair_tiles, TileSpan};
+use super::pairing::{pair_tiles, row_spans, span_of};
 use super::{per_tile_jobs, Command, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
 
 pub struct Multiview;
@@ -20,67 +21,54 @@ impl Scheduler for Multiview {
 
     fn schedule(&self, input: &ScheduleInput) -> Schedule {
         let grid = input.bins.grid;
-        // Rank of every (view, tile column, prim) on its row: the position of the tile in the
-        // pair traversal, left tile of a pair before its right tile.
-        let mut ranks: BTreeMap<(u8, u32, u32), u32> = BTreeMap::new();
-        let mut pairs = Vec::new();
-        for row in 0..grid.tiles_y {
-            let spans: [BTreeMap<u32, (TileSpan, u32)>; 2] = [0, 1].map(|v| {
-                let mut m: BTreeMap<u32, (TileSpan, u32)> = BTreeMap::new();
-                for x in 0..grid.tiles_x {
-                    for &s in &input.bins.lists[v][(row * grid.tiles_x + x) as usize] {
-                        let prim = input.setups[v][s as usize].prim;
-                        m.entry(prim).and_modify(|e| e.0 .1 = x).or_insert(((x, x), s));
+        // Rank of every (view, tile, prim) on its row: the position of the tile in the pair
+        // traversal, left tile of a pair before its right tile. Rows are independent.
+        let ranks: Vec<HashMap<(u8, u32, u32), u32>> = (0..grid.tiles_y)
+            .into_par_iter()
+            .map(|row| {
+                let mut ranks = HashMap::new();
+                let mut pairs = Vec::new();
+                let spans = [0, 1].map(|v| row_spans(input, row, v));
+                let rect = grid.rect(row * grid.tiles_x);
+                for v in 0..2u8 {
+                    for &(prim, span, s) in &spans[v as usize] {
+                        let tile = |x: u32| row * grid.tiles_x + x;
+                        let mut next = 0u32;
+                        let mut rank = |view: u8, x: u32, ranks: &mut HashMap<(u8, u32, u32), u32>| {
+                            ranks.entry((view, tile(x), prim)).or_insert_with(|| {
+                                next += 1;
+                                next
+                            });
+                        };
+                        match (v, span_of(&spans[1], prim)) {
+                            (0, Some((r, rs))) => {
+                                pairs.clear();
+                                let (left, right) = (&input.setups[0][s as usize], &input.setups[1][rs as usize]);
+                                let center_y = (rect.y0 + rect.y1) / 2;
+                                pair_tiles(left, right, span, r, center_y, grid.tile, grid.width, &mut pairs);
+                                for &(a, b) in &pairs {
+                                    rank(0, a, &mut ranks);
+                                    rank(1, b, &mut ranks);
+                                }
+                                for x in span.0..=span.1 {
+                                    rank(0, x, &mut ranks);
+                                }
+                                for x in r.0..=r.1 {
+                                    rank(1, x, &mut ranks);
+                                }
+                            }
+                            (0, None) | (1, _) => {
+                                for x in span.0..=span.1 {
+                                    rank(v, x, &mut ranks);
+                                }
+                            }
+                            _ => {}
+                        }
                     }
                 }
-                m
-            });
-            let rect = grid.rect(row * grid.tiles_x);
-            for v in 0..2u8 {
-                for (&prim, &(span, s)) in &spans[v as usize] {
-                    let tile = |x: u32| row * grid.tiles_x + x;
-                    let mut next = 0u32;
-                    let mut rank = |view: u8, x: u32, ranks: &mut BTreeMap<(u8, u32, u32), u32>| {
-                        ranks.entry((view, tile(x), prim)).or_insert_with(|| {
-                            next += 1;
-                            next
-                        });
-                    };
-                    match (v, spans[1].get(&prim)) {
-                        (0, Some(&(r, rs))) => {
-                            pairs.clear();
-                            let (left, right) = (&input.setups[0][s as usize], &input.setups[1][rs as usize]);
-                            pair_tiles(
-                                left,
-                                right,
-                                span,
-                                r,
-                                (rect.y0 + rect.y1) / 2,
-                                grid.tile,
-                                grid.width,
-                                &mut pairs,
-                            );
-                            for &(a, b) in &pairs {
-                                rank(0, a, &mut ranks);
-                                rank(1, b, &mut ranks);
-                            }
-                            for x in span.0..=span.1 {
-                                rank(0, x, &mut ranks);
-                            }
-                            for x in r.0..=r.1 {
-                                rank(1, x, &mut ranks);
-                            }
-                        }
-                        (0, None) | (1, _) => {
-                            for x in span.0..=span.1 {
-                                rank(v, x, &mut ranks);
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-            }
-        }
+                ranks
+            })
+            .collect();
         let mut jobs = per_tile_jobs(input.bins);
         for job in &mut jobs {
             for unit in job.commands.iter_mut().filter_map(|c| match c {
@@ -89,7 +77,10 @@ impl Scheduler for Multiview {
             }) {
                 let prim = input.setups[unit.view as usize][unit.tri as usize].prim;
                 let row = unit.tile / grid.tiles_x;
-                let position = ranks.get(&(unit.view, unit.tile, prim)).copied().unwrap_or(0);
+                let position = ranks[row as usize]
+                    .get(&(unit.view, unit.tile, prim))
+                    .copied()
+                    .unwrap_or(0);
                 // Triangle first (both views together), then row, then traversal position:
                 // 32 + 12 + 13 bits (rows <= 4096, positions <= 2 x 4096 columns).
                 unit.rank = (prim as u64) << 25 | (row as u64 & 0xfff) << 13 | (position as u64 & 0x1fff);

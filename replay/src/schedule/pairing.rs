@@ -13,10 +13,35 @@
 
 use glam::Vec3;
 
+use super::ScheduleInput;
 use crate::vertex_stage::{SetupTriangle, SUBPIXEL};
 
 /// Covered tile columns `[first, last]` of one triangle on one row, in one view.
 pub type TileSpan = (u32, u32);
+
+/// On tile row `row` of view `v`: per primitive (ascending), the tile columns it covers and
+/// its first setup triangle there (a clipped primitive may have several).
+pub fn row_spans(input: &ScheduleInput, row: u32, v: usize) -> Vec<(u32, TileSpan, u32)> {
+    let tiles_x = input.bins.grid.tiles_x;
+    let mut seen: Vec<(u32, u32, u32)> = (0..tiles_x)
+        .flat_map(|x| {
+            input.bins.lists[v][(row * tiles_x + x) as usize]
+                .iter()
+                .map(move |&s| (input.setups[v][s as usize].prim, x, s))
+        })
+        .collect();
+    // Stable: a primitive's occurrences stay in column order.
+    seen.sort_by_key(|&(prim, _, _)| prim);
+    seen.chunk_by(|a, b| a.0 == b.0)
+        .map(|run| (run[0].0, (run[0].1, run[run.len() - 1].1), run[0].2))
+        .collect()
+}
+
+/// The entry of primitive `prim` in [`row_spans`]' list.
+pub fn span_of(spans: &[(u32, TileSpan, u32)], prim: u32) -> Option<(TileSpan, u32)> {
+    let i = spans.binary_search_by_key(&prim, |&(p, _, _)| p).ok()?;
+    Some((spans[i].1, spans[i].2))
+}
 
 /// PB of the point at pixel x-boundary `x` (pixels) on the row's centre line `y_fixed`.
 fn pb_at(setup: &SetupTriangle, x: u32, y_fixed: i64) -> Vec3 {

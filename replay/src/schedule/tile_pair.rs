@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 
-use super::pairing::{pair_tiles, TileSpan};
+use super::pairing::{pair_tiles, row_spans, span_of};
 use super::{tile_list_stats, Command, Job, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
 
 /// Bytes of one tile-pair list entry (a u16 index into a tile list).
@@ -70,31 +70,15 @@ impl TilePair {
         let grid = input.bins.grid;
         let tiles_x = grid.tiles_x;
         let list = |v: usize, x: u32| &input.bins.lists[v][(row * tiles_x + x) as usize];
-        // Covered columns and one setup triangle (its first) per primitive, per view, by
-        // primitive.
-        let spans: [Vec<(u32, TileSpan, u32)>; 2] = [0, 1].map(|v| {
-            let mut seen: Vec<(u32, u32, u32)> = (0..tiles_x)
-                .flat_map(|x| {
-                    list(v, x)
-                        .iter()
-                        .map(move |&s| (input.setups[v][s as usize].prim, x, s))
-                })
-                .collect();
-            // Stable: a primitive's occurrences stay in column order.
-            seen.sort_by_key(|&(prim, _, _)| prim);
-            seen.chunk_by(|a, b| a.0 == b.0)
-                .map(|run| (run[0].0, (run[0].1, run[run.len() - 1].1), run[0].2))
-                .collect()
-        });
+        let spans = [0, 1].map(|v| row_spans(input, row, v));
         let rect = grid.rect(row * tiles_x);
         let center_y = (rect.y0 + rect.y1) / 2;
         let mut entries: Vec<((u32, u32), u32)> = Vec::new();
         let mut pairs = Vec::new();
         for &(prim, l, ls) in &spans[0] {
-            let Ok(found) = spans[1].binary_search_by_key(&prim, |&(p, _, _)| p) else {
+            let Some((r, rs)) = span_of(&spans[1], prim) else {
                 continue;
             };
-            let (_, r, rs) = spans[1][found];
             pairs.clear();
             let (left, right) = (&input.setups[0][ls as usize], &input.setups[1][rs as usize]);
             pair_tiles(left, right, l, r, center_y, grid.tile, grid.width, &mut pairs);
