@@ -102,6 +102,7 @@ impl ShadingScheme for Deferred {
             culler: None,
             list: Vec::new(),
             clusters: BTreeMap::new(),
+            slices: Vec::new(),
         })
     }
 }
@@ -128,6 +129,8 @@ struct DeferredJob {
     list: Vec<u32>,
     /// Cluster lists by (view, column x, column y, slice), made as pixels need them.
     clusters: BTreeMap<(u8, u32, u32, u32), Vec<u32>>,
+    /// Every slice's NDC depth range ([`slice_depths`], two `powf` each), made once.
+    slices: Vec<(f32, f32)>,
 }
 
 impl SchemeJob for DeferredJob {
@@ -355,6 +358,10 @@ impl DeferredJob {
     /// The list of cluster (`cx`, `cy`, `slice`) of `view`, made on first use.
     fn cluster(&mut self, ctx: &TileContext, view: u8, cx: u32, cy: u32, slice: u32) -> &[u32] {
         let culler = self.culler.get_or_insert_with(|| LightCuller::new(ctx.env.lights));
+        if self.slices.is_empty() {
+            self.slices = (0..CLUSTER_SLICES).map(|k| slice_depths(k, ctx.depth_range)).collect();
+        }
+        let depths = self.slices[slice as usize];
         self.clusters.entry((view, cx, cy, slice)).or_insert_with(|| {
             let rect = Rect {
                 x0: cx * CLUSTER_TILE,
@@ -363,13 +370,7 @@ impl DeferredJob {
                 y1: ((cy + 1) * CLUSTER_TILE).min(ctx.height),
             };
             let mut list = Vec::new();
-            culler.cull(
-                &view_projection(ctx),
-                (ctx.width, ctx.height),
-                rect,
-                slice_depths(slice, ctx.depth_range),
-                &mut list,
-            );
+            culler.cull(&view_projection(ctx), (ctx.width, ctx.height), rect, depths, &mut list);
             list
         })
     }
