@@ -184,12 +184,14 @@ impl AccessLog {
         }
     }
 
-    /// The segments that made accesses: (segment index, command index), in order.
+    /// The segments that made accesses: (segment index, command index), in order. Only the
+    /// last can be empty ([`Self::begin`] reuses an empty one).
     pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        self.segments
+        let end = self.entries.each_ref().map(Vec::len);
+        let open_empty = self.segments.last().is_some_and(|last| last.start == end);
+        self.segments[..self.segments.len() - usize::from(open_empty)]
             .iter()
             .enumerate()
-            .filter(|&(i, _)| (0..STREAMS).any(|s| !self.stream(i, s).is_empty()))
             .map(|(i, seg)| (i, seg.command))
     }
 
@@ -483,16 +485,20 @@ fn replay_memo(entries: u64, segments: &[LogSegment]) -> (MemoOutcome, Slots, Ca
 /// Replays the accesses of one frame, segment by segment in the given order, through
 /// fresh caches.
 pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
-    let (memo, slots, memo_stats) = replay_memo(sizes.memo_entries, segments);
+    // Streams no log holds an entry of replay nothing: their caches are skipped (a whole
+    // log's length answers for all its segments at once).
+    let used: [bool; STREAMS] = std::array::from_fn(|s| segments.iter().any(|&(log, _)| !log.entries[s].is_empty()));
+    let (memo, slots, memo_stats) = if used[Stream::Memo as usize] {
+        replay_memo(sizes.memo_entries, segments)
+    } else {
+        (MemoOutcome::default(), Slots(Vec::new()), CacheStats::default())
+    };
     // The caches are independent: each replays its own stream of the same order, in parts
     // of its sets, one task per part (the counts do not depend on how many).
     // A power of two, so that a set's part is a mask of its index.
     let parts = 1u64 << rayon::current_num_threads().max(1).ilog2();
     let run_part = |stream: Stream, bytes: u64, part: u64| {
-        if segments
-            .iter()
-            .all(|&(log, i)| log.stream(i, stream as usize).is_empty())
-        {
+        if !used[stream as usize] {
             return (0, 0, CacheStats::default());
         }
         let mut cache = Cache::part(bytes, part, parts);
@@ -600,19 +606,21 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         Stream::TriangleBuffer | Stream::Memo => sizes.triangle_buffer,
         Stream::Bvh => sizes.bvh,
     };
-    let results: Vec<(u64, u64, CacheStats)> = REPLAYED
-        .par_iter()
-        .flat_map(|&stream| (0..parts).into_par_iter().map(move |part| (stream, part)))
-        .map(|(stream, part)| run_part(stream, bytes(stream), part))
+    // One task per part, each replaying its sets of every cache: the parts are alike (sets
+    // are dealt by index), so the threads finish together, where a task per cache and part
+    // left the texture cache's parts, the longest by far, to run last on one thread.
+    let results: Vec<[(u64, u64, CacheStats); REPLAYED.len()]> = (0..parts)
+        .into_par_iter()
+        .map(|part| REPLAYED.map(|stream| run_part(stream, bytes(stream), part)))
         .collect();
     let [depth, color, tri, tex, gbuffer, visibility, triangle_buffer, bvh] = std::array::from_fn(|s| {
-        results[s * parts as usize..(s + 1) * parts as usize].iter().fold(
-            (0, 0, CacheStats::default()),
-            |(d, w, mut stats), (pd, pw, ps)| {
+        results
+            .iter()
+            .map(|part| &part[s])
+            .fold((0, 0, CacheStats::default()), |(d, w, mut stats), (pd, pw, ps)| {
                 stats.add(ps);
                 (d + pd, w + pw, stats)
-            },
-        )
+            })
     });
     let mut traffic = Traffic::default();
     traffic.add_bytes(
