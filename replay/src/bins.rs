@@ -65,12 +65,9 @@ impl Bins {
 fn bin_view(grid: TileGrid, tris: &[SetupTriangle]) -> Vec<Vec<u32>> {
     let mut by_row = vec![Vec::new(); grid.tiles_y as usize];
     for (i, t) in tris.iter().enumerate() {
-        let rows = (t.bbox[1] / grid.tile) as usize..=(t.bbox[3] / grid.tile) as usize;
-        let last = by_row.len().saturating_sub(1);
-        for row in by_row
-            .get_mut(*rows.start()..=(*rows.end()).min(last))
-            .unwrap_or_default()
-        {
+        let first = (t.bbox[1] / grid.tile) as usize;
+        let last = ((t.bbox[3] / grid.tile) as usize).min(by_row.len().saturating_sub(1));
+        for row in by_row.get_mut(first..=last).unwrap_or_default() {
             row.push(i as u32);
         }
     }

@@ -206,12 +206,11 @@ impl ShadowMap {
             // of texels in one or two blocks (the same accesses, in the same order).
             let x0 = (tx - PCF_RADIUS) as u32;
             let (b0, b1) = (x0 / BLOCK, (x0 + PCF_TAPS as u32 - 1) / BLOCK);
-            let (by0, by1) = (
-                (ty - PCF_RADIUS).clamp(0, last) as u32 / BLOCK,
-                (ty + PCF_RADIUS).clamp(0, last) as u32 / BLOCK,
-            );
+            // Each row's block row: a run of rows per block row, at most two runs.
+            let block_rows: [u32; PCF_TAPS] =
+                std::array::from_fn(|i| (ty + i as i32 - PCF_RADIUS).clamp(0, last) as u32 / BLOCK);
             let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
-            for by in [by0, by1] {
+            for by in [block_rows[0], block_rows[PCF_TAPS - 1]] {
                 for bx in [b0, b1] {
                     let (lo, hi) = self.block_ranges[(by * blocks_x + bx) as usize];
                     (near, far) = (near.min(lo), far.max(hi));
@@ -225,11 +224,9 @@ impl ShadowMap {
             } else {
                 None
             };
-            // The rows' accesses, a run of rows per block row (at most two): rows in one
-            // block read its line in b0 (repeats the log drops) or alternate between b0's
-            // and b1's, which the log counts as one repeated pair.
-            let block_rows: [u32; PCF_TAPS] =
-                std::array::from_fn(|i| (ty + i as i32 - PCF_RADIUS).clamp(0, last) as u32 / BLOCK);
+            // The rows' accesses, per run of rows in one block row: its line in b0 (repeats
+            // the log drops), or alternating between b0's and b1's, which the log counts as
+            // one repeated pair.
             let mut row = 0;
             while row < PCF_TAPS {
                 let by = block_rows[row];

@@ -71,9 +71,13 @@ fn uv_source(set: u32, transform: Option<&TextureTransform>) -> UvSource {
     }
 }
 
-/// The transform of a normal or occlusion texture, which the `gltf` crate keeps unparsed.
-fn unparsed_transform(transform: Option<&json::Value>) -> Option<TextureTransform> {
-    transform.and_then(|t| json::deserialize::from_value(t.clone()).ok())
+const TRANSFORM: &str = "KHR_texture_transform";
+
+/// The UV source of a normal or occlusion texture, whose `KHR_texture_transform` (given
+/// here) the `gltf` crate keeps unparsed.
+fn unparsed_uv_source(set: u32, transform: Option<&json::Value>) -> UvSource {
+    let transform = transform.and_then(|t| json::deserialize::from_value::<TextureTransform>(t.clone()).ok());
+    uv_source(set, transform.as_ref())
 }
 
 impl<'a> Materials<'a> {
@@ -162,18 +166,12 @@ impl<'a> Materials<'a> {
                 )
             }),
             material.normal_texture.as_ref().map(|n| {
-                let t = n
-                    .extensions
-                    .as_ref()
-                    .and_then(|e| unparsed_transform(e.others.get("KHR_texture_transform")));
-                ("normal", n.index.value(), uv_source(n.tex_coord, t.as_ref()), true)
+                let uv = unparsed_uv_source(n.tex_coord, n.extensions.as_ref().and_then(|e| e.others.get(TRANSFORM)));
+                ("normal", n.index.value(), uv, true)
             }),
             material.occlusion_texture.as_ref().map(|o| {
-                let t = o
-                    .extensions
-                    .as_ref()
-                    .and_then(|e| unparsed_transform(e.others.get("KHR_texture_transform")));
-                ("occlusion", o.index.value(), uv_source(o.tex_coord, t.as_ref()), true)
+                let uv = unparsed_uv_source(o.tex_coord, o.extensions.as_ref().and_then(|e| e.others.get(TRANSFORM)));
+                ("occlusion", o.index.value(), uv, true)
             }),
             // Black times any texture is black: a zero emissive factor (glTF's default)
             // leaves its texture unread.

@@ -75,6 +75,7 @@ pub fn memo_key(view: u8, tri: u32) -> u64 {
 /// Log entries are 32-bit: a line number below [`REPEAT_BASE`] and a write bit. Every
 /// stream's address space fits: the largest, texture, holds at most a trace's 4 GiB Textures
 /// chunk with its mips and the shadow map, about 2^25 lines.
+const STREAMS: usize = 9;
 const WRITE_BIT: u32 = 1 << 31;
 const LINE_MASK: u32 = WRITE_BIT - 1;
 /// Line values from here up are counted repeats, not lines: "the stream's two previous
@@ -82,14 +83,18 @@ const LINE_MASK: u32 = WRITE_BIT - 1;
 const REPEAT_BASE: u32 = LINE_MASK - 0xFFFF;
 const REPEAT_MAX: u32 = LINE_MASK - REPEAT_BASE + 1;
 
+/// A log entry's line and write bit.
+#[inline]
+fn decoded(entry: u32) -> (u64, bool) {
+    (u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0)
+}
+
 /// The repeats a log entry stands for, if it is a counted repeat.
 #[inline]
 fn repeat_count(entry: u32) -> Option<u64> {
     let value = entry & LINE_MASK;
     (value >= REPEAT_BASE).then(|| u64::from(value - REPEAT_BASE + 1))
 }
-const STREAMS: usize = 9;
-
 /// The cache lines a job's commands touched: one growing list per stream (so each cache
 /// replays only its own accesses), cut into segments, one per command that made accesses.
 /// One log per job, reused from command to command: no allocation per unit.
@@ -510,7 +515,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
             stream,
             Stream::Depth | Stream::Color | Stream::GBuffer | Stream::Visibility
         );
-        let mut access = |line: u64, write: bool| {
+        let mut access = |(line, write): (u64, bool)| {
             let (miss, evicted_dirty) = cache.access(line, write);
             if miss {
                 if framebuffer && !written.contains(line) {
@@ -538,7 +543,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                     if let Some((first, last)) = slots.lines(u64::from(entry & LINE_MASK)) {
                         (first..=last)
                             .filter(|&l| filter.holds(l))
-                            .for_each(|l| access(l, write));
+                            .for_each(|l| access((l, write)));
                     }
                 }
                 continue;
@@ -554,32 +559,32 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                         continue;
                     }
                     for &e in &held[..n] {
-                        access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                        access(decoded(e));
                     }
                     n = 0;
                     for _ in 0..times {
                         for e in pair.into_iter().filter(|&e| filter.holds(u64::from(e & LINE_MASK))) {
-                            access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                            access(decoded(e));
                         }
                     }
                     continue;
                 }
                 pair = [pair[1], entry];
                 if parts == 1 {
-                    access(u64::from(entry & LINE_MASK), entry & WRITE_BIT != 0);
+                    access(decoded(entry));
                     continue;
                 }
                 held[n] = entry;
                 n += usize::from(filter.holds(u64::from(entry & LINE_MASK)));
                 if n == held.len() {
                     for &e in &held {
-                        access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                        access(decoded(e));
                     }
                     n = 0;
                 }
             }
             for &e in &held[..n] {
-                access(u64::from(e & LINE_MASK), e & WRITE_BIT != 0);
+                access(decoded(e));
             }
         }
         cache.stats.accesses += repeat_hits;
@@ -606,9 +611,8 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         Stream::TriangleBuffer | Stream::Memo => sizes.triangle_buffer,
         Stream::Bvh => sizes.bvh,
     };
-    // One task per part, each replaying its sets of every cache: the parts are alike (sets
-    // are dealt by index), so the threads finish together, where a task per cache and part
-    // left the texture cache's parts, the longest by far, to run last on one thread.
+    // One task per part, each replaying its sets of every cache: parts are alike (sets are
+    // dealt by index), so each thread gets an even share of every cache's work.
     let results: Vec<[(u64, u64, CacheStats); REPLAYED.len()]> = (0..parts)
         .into_par_iter()
         .map(|part| REPLAYED.map(|stream| run_part(stream, bytes(stream), part)))
