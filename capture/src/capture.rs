@@ -13,7 +13,7 @@ use shadetrace_formats::{
 
 use crate::camera_path::{main_floor, CameraPathSpec, Flythrough, Orbit, Walk};
 use crate::error::{Error, Result};
-use crate::gltf_import::{load_gltf, ImportOptions};
+use crate::gltf_import::{load_gltf, ImportLimits, ImportOptions};
 use crate::procedural;
 use crate::prune::prune;
 use crate::source::{FrameMotion, MAX_WORLD_COORDINATE_M};
@@ -61,6 +61,8 @@ pub struct CaptureOptions {
     pub max_texture: u32,
     /// Frames per second at which animation is sampled (orbit and camera paths).
     pub fps: f32,
+    /// How much a glTF import may decode (geometry in all, and each image).
+    pub import_limits: ImportLimits,
 }
 
 impl Default for CaptureOptions {
@@ -76,6 +78,7 @@ impl Default for CaptureOptions {
             near_m: None,
             max_texture: 1024,
             fps: 30.0,
+            import_limits: ImportLimits::default(),
         }
     }
 }
@@ -163,6 +166,7 @@ pub fn capture(input: &Input, opts: &CaptureOptions, progress: &mut dyn FnMut(u3
                 path,
                 &ImportOptions {
                     max_texture: opts.max_texture,
+                    limits: opts.import_limits,
                 },
             )?,
             None,

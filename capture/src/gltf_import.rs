@@ -30,6 +30,7 @@
 //! each with one line naming the file and the problem.
 
 mod basisu;
+mod budget;
 mod data;
 mod draco;
 mod geometry;
@@ -53,6 +54,7 @@ use crate::source::{SourceCamera, SourceScene, MAX_WORLD_COORDINATE_M};
 use crate::{Error, Result};
 use geometry::{TriangleMode, Triangles};
 
+pub use budget::ImportLimits;
 pub use shadetrace_formats::phong_from_metallic_roughness;
 
 /// Largest `.gltf` / `.glb` file capture reads.
@@ -64,6 +66,8 @@ pub struct ImportOptions {
     /// Largest texture edge kept, in pixels; bigger images are scaled down with a
     /// triangle filter, keeping their aspect ratio.
     pub max_texture: u32,
+    /// How much the import may decode before it stops with an error.
+    pub limits: ImportLimits,
 }
 
 /// Extensions whose effect the importer reproduces.
@@ -213,7 +217,7 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
         .canonicalize()
         .map_err(|e| input(format!("cannot resolve the model's folder: {e}")))?;
     let base = base.as_path();
-    let reader = data::Reader::new(&root, container.bin, base)?;
+    let reader = data::Reader::new(&root, container.bin, base, opts.limits.geometry_bytes)?;
     let motion = motion::GltfMotion::new(&root, &reader, &mut warnings)?;
     let roots = scene_roots(&root, &mut warnings)?;
     let order = motion.nodes().traverse(&roots)?;
@@ -221,7 +225,7 @@ fn import(path: &Path, shown: &str, opts: &ImportOptions) -> Fallible<SourceScen
     let mut importer = Importer {
         root: &root,
         reader: &reader,
-        materials: material::Materials::new(&root, &reader, base, opts.max_texture),
+        materials: material::Materials::new(&root, &reader, base, opts.max_texture, opts.limits.image_bytes),
         world: motion.world_matrices(0.0),
         motion,
         meshes: Vec::new(),

@@ -14,3 +14,4 @@ pub mod uv_atlas;
 pub use camera_path::{CameraPathSpec, Flythrough, Orbit};
 pub use capture::{capture, CaptureOptions, Captured, Input};
 pub use error::{Error, Result};
+pub use gltf_import::ImportLimits;

@@ -12,11 +12,16 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use shadetrace_capture::gltf_import::{load_gltf, ImportOptions};
+use shadetrace_capture::gltf_import::{load_gltf, ImportLimits, ImportOptions};
 use shadetrace_capture::source::SourceScene;
 
+const OPTS: ImportOptions = ImportOptions {
+    max_texture: 2048,
+    limits: ImportLimits::DEFAULT,
+};
+
 fn load(path: &Path) -> SourceScene {
-    load_gltf(path, &ImportOptions { max_texture: 2048 }).unwrap_or_else(|e| panic!("{e}"))
+    load_gltf(path, &OPTS).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn fixture(name: &str) -> PathBuf {
@@ -277,15 +282,38 @@ fn a_draco_decoder_panic_is_a_one_line_error() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("corrupt.glb");
     std::fs::write(&path, &glb).unwrap();
-    let e = load_gltf(&path, &ImportOptions { max_texture: 2048 })
-        .err()
-        .expect("an error");
+    let e = load_gltf(&path, &OPTS).err().expect("an error");
     let message = e.to_string();
     assert!(
         message.contains("corrupt.glb") && message.contains("corrupt Draco data"),
         "{message}"
     );
     assert!(!message.contains('\n'), "{message}");
+}
+
+/// Compressed geometry is charged to the import's budget before it is decoded: the grid's
+/// few kilobytes of geometry fit 1 MiB and not 1 KiB, and the refusal names the stream.
+#[test]
+fn compressed_geometry_is_charged_before_it_is_decoded() {
+    for (name, stream) in [
+        ("wavy_grid-draco.glb", "(Draco)"),
+        ("wavy_grid-meshopt.glb", "(meshopt compression)"),
+    ] {
+        let with = |geometry_bytes| ImportOptions {
+            limits: ImportLimits {
+                geometry_bytes,
+                ..ImportLimits::DEFAULT
+            },
+            ..OPTS
+        };
+        assert!(load_gltf(&fixture(name), &with(1 << 20)).is_ok(), "{name}");
+        let message = load_gltf(&fixture(name), &with(1 << 10))
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(message.contains(name) && message.contains(stream), "{message}");
+        assert!(message.contains("1024 bytes of geometry"), "{message}");
+    }
 }
 
 proptest::proptest! {
@@ -306,7 +334,7 @@ proptest::proptest! {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("corrupt.glb");
         std::fs::write(&path, &glb).unwrap();
-        if let Err(e) = load_gltf(&path, &ImportOptions { max_texture: 2048 }) {
+        if let Err(e) = load_gltf(&path, &OPTS) {
             let message = e.to_string();
             proptest::prop_assert!(message.contains("corrupt.glb") && !message.contains('\n'), "{message}");
         }

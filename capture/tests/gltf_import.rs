@@ -6,12 +6,15 @@ use std::path::Path;
 
 use glam::{Mat4, Vec2, Vec3};
 use sha2::{Digest, Sha256};
-use shadetrace_capture::gltf_import::{load_gltf, ImportOptions};
+use shadetrace_capture::gltf_import::{load_gltf, ImportLimits, ImportOptions};
 use shadetrace_capture::source::SourceScene;
 use shadetrace_capture::Error;
 use shadetrace_formats::{AlphaMode, LightKind, Motion, Source, Wrap};
 
-const OPTS: ImportOptions = ImportOptions { max_texture: 4096 };
+const OPTS: ImportOptions = ImportOptions {
+    max_texture: 4096,
+    limits: ImportLimits::DEFAULT,
+};
 
 fn load(path: &Path) -> SourceScene {
     load_gltf(path, &OPTS).unwrap_or_else(|e| panic!("{e}"))
@@ -103,7 +106,7 @@ fn glb_imports_the_same_scene_as_gltf() {
 fn max_texture_scales_textures_down_keeping_aspect() {
     let dir = tempfile::tempdir().unwrap();
     let path = support::write_textured_gltf(dir.path());
-    let scene = load_gltf(&path, &ImportOptions { max_texture: 4 }).unwrap();
+    let scene = load_gltf(&path, &ImportOptions { max_texture: 4, ..OPTS }).unwrap();
     let texture = &scene.scene.textures[0];
     assert_eq!((texture.width, texture.height), (4, 2));
     assert_eq!(texture.rgba8.len(), 4 * 2 * 4);
@@ -254,6 +257,51 @@ fn non_finite_positions_are_rejected() {
             .contains("non-finite vertex position in mesh 0 (Triangle)"),
         "{e}"
     );
+    assert_one_line_naming_file(&e, &path);
+}
+
+fn with_geometry_bytes(geometry_bytes: u64) -> ImportOptions {
+    ImportOptions {
+        limits: ImportLimits {
+            geometry_bytes,
+            ..ImportLimits::DEFAULT
+        },
+        ..OPTS
+    }
+}
+
+/// A few bytes of JSON declaring gigabytes of zeros are refused before anything is
+/// allocated, naming the accessor.
+#[test]
+fn accessors_without_buffer_views_are_charged_to_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = support::write_gltf_with_implicit_positions(dir.path(), 1 << 40);
+    let e = error_of(&path);
+    assert!(
+        e.to_string().contains("POSITION of mesh 0 primitive 0 (accessor 0)"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("bytes of geometry"), "{e}");
+    assert_one_line_naming_file(&e, &path);
+    // Within the budget they are read: 3 zero positions, one degenerate triangle.
+    let small = support::write_gltf_with_implicit_positions(dir.path(), 3);
+    assert!(load_gltf(&small, &with_geometry_bytes(36)).is_ok());
+    assert!(load_gltf(&small, &with_geometry_bytes(35)).is_err());
+}
+
+/// Every node that instances a mesh reads its accessors again, and pays for them again:
+/// the budget bounds the flattened scene, not just the file's data.
+#[test]
+fn each_mesh_instance_is_charged_to_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = 3 * 12 + 3 * 4; // three VEC3 f32 positions and three indices as u32
+    let path = support::write_instanced_triangle(dir.path(), 10);
+    let scene = load_gltf(&path, &with_geometry_bytes(10 * one)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.scene.geometry.meshes.len(), 10);
+    let e = load_gltf(&path, &with_geometry_bytes(10 * one - 1))
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("mesh instances count again"), "{e}");
     assert_one_line_naming_file(&e, &path);
 }
 

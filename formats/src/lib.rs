@@ -13,7 +13,7 @@ pub mod validate;
 
 pub use container::{
     decompressed_limit, ChunkInfo, ChunkKind, TraceReader, TraceWriter, DEFAULT_ZSTD_LEVEL, EXPANSION_ALLOWANCE,
-    FORMAT_MAJOR, FORMAT_MINOR, MAX_EXPANSION,
+    FORMAT_MAJOR, FORMAT_MINOR, MAX_CHUNK_RAW_LEN, MAX_EXPANSION,
 };
 pub use error::{Error, Result};
 pub use features::{Feature, Features};

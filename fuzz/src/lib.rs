@@ -7,7 +7,7 @@ use std::io::Cursor;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use shadetrace_capture::{capture, CaptureOptions, Flythrough, Input};
+use shadetrace_capture::{capture, CaptureOptions, Flythrough, ImportLimits, Input};
 use shadetrace_formats::{TraceReader, TraceWriter};
 
 /// Frames decoded per trace at most, so one input cannot run for long.
@@ -66,6 +66,14 @@ fn model_folder() -> &'static PathBuf {
     })
 }
 
+/// What one fuzzed import may decode: far below the run's 512 MiB of RSS, so that memory
+/// which escapes the import's budget (a count a few bytes declare, decoded unchecked) is
+/// what reaches that limit and is reported.
+const FUZZ_LIMITS: ImportLimits = ImportLimits {
+    geometry_bytes: 16 << 20,
+    image_bytes: 8 << 20,
+};
+
 /// Captures the bytes as a `.gltf`/`.glb` file (two small frames); whatever capture accepts
 /// must write a trace the reader accepts with the same hash.
 pub fn gltf_import(data: &[u8]) {
@@ -80,6 +88,7 @@ pub fn gltf_import(data: &[u8]) {
         eye_width: 16,
         eye_height: 16,
         max_texture: 16,
+        import_limits: FUZZ_LIMITS,
         ..CaptureOptions::default()
     };
     let Ok(captured) = capture(&Input::File(path), &opts, &mut |_, _| {}) else {

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use shadetrace_capture::{capture, CameraPathSpec, CaptureOptions, Input};
+use shadetrace_capture::{capture, CameraPathSpec, CaptureOptions, ImportLimits, Input};
 use shadetrace_formats::DEFAULT_ZSTD_LEVEL;
 
 use crate::progress;
@@ -64,6 +64,7 @@ pub fn run(args: Args) -> Result<(), String> {
         near_m: args.near,
         max_texture: args.max_texture,
         fps: args.fps,
+        import_limits: ImportLimits::DEFAULT,
     };
     let input = Input::parse(&args.input);
     let bar = progress::bar(args.frames as u64, "frames", args.quiet);

@@ -14,6 +14,7 @@ use gltf::json::{
     accessor::{ComponentType, Type},
 };
 
+use super::budget::GeometryBudget;
 use super::{draco, input, meshopt, unsupported, valid, Fallible};
 
 /// The JSON part of a file and, for a GLB container, its `BIN` chunk.
@@ -27,11 +28,6 @@ const GLB_HEADER_LEN: usize = 12;
 const CHUNK_HEADER_LEN: usize = 8;
 const CHUNK_JSON: u32 = u32::from_le_bytes(*b"JSON");
 const CHUNK_BIN: u32 = u32::from_le_bytes(*b"BIN\0");
-
-/// Accessors without a buffer view are all zeros (plus sparse substitutions); their
-/// element count is not backed by file bytes, so it is capped to keep a few bytes of JSON
-/// from asking for gigabytes.
-const MAX_IMPLICIT_ELEMENTS: usize = 1 << 24;
 
 /// Splits a GLB container into its chunks; any other file is taken to be JSON.
 pub(super) fn split_container(bytes: &[u8]) -> Fallible<Container<'_>> {
@@ -299,6 +295,8 @@ pub(super) struct Reader<'a> {
     /// The elements of accessors decoded from Draco streams, tightly packed, by accessor
     /// index; they replace the accessor's (absent) buffer view.
     decoded_accessors: HashMap<usize, Vec<u8>>,
+    /// Charged for every decode and every accessor read.
+    budget: GeometryBudget,
 }
 
 impl<'a> Reader<'a> {
@@ -306,9 +304,15 @@ impl<'a> Reader<'a> {
     /// the URI's bytes, read up to the declared `byteLength` (at most
     /// [`MAX_BUFFER_BYTES`]). Each must hold at least its declared `byteLength`, except a
     /// meshopt fallback buffer, which is never read: its views are decoded from
-    /// compressed bytes elsewhere (at most [`MAX_BUFFER_BYTES`] of them in all). Draco
-    /// primitives are decoded here too, within the same bound.
-    pub fn new(root: &'a json::Root, mut bin: Option<&[u8]>, folder: &Path) -> Fallible<Reader<'a>> {
+    /// compressed bytes elsewhere. Draco primitives are decoded here too. Those decodes,
+    /// and every accessor read after them, are charged to `geometry_bytes`
+    /// ([`super::ImportLimits::geometry_bytes`]).
+    pub fn new(
+        root: &'a json::Root,
+        mut bin: Option<&[u8]>,
+        folder: &Path,
+        geometry_bytes: u64,
+    ) -> Fallible<Reader<'a>> {
         let mut buffers = Vec::with_capacity(root.buffers.len());
         for (i, buffer) in root.buffers.iter().enumerate() {
             let what = format!("buffer {i}");
@@ -342,14 +346,16 @@ impl<'a> Reader<'a> {
             }
             buffers.push(bytes);
         }
-        let decoded_views = meshopt::decode_views(root, &buffers, MAX_BUFFER_BYTES)?;
+        let budget = GeometryBudget::new(geometry_bytes);
+        let decoded_views = meshopt::decode_views(root, &buffers, &budget)?;
         let mut reader = Reader {
             root,
             buffers,
             decoded_views,
             decoded_accessors: HashMap::new(),
+            budget,
         };
-        reader.decoded_accessors = draco::decode_accessors(root, |v| reader.view_bytes(v), MAX_BUFFER_BYTES)?;
+        reader.decoded_accessors = draco::decode_accessors(root, |v| reader.view_bytes(v), &reader.budget)?;
         Ok(reader)
     }
 
@@ -454,6 +460,10 @@ impl<'a> Reader<'a> {
         let size = component.size();
         let element = width * size;
         let count = to_usize(accessor.count.0, &what)?;
+        // Charged before anything is allocated: an accessor without a buffer view is
+        // all zeros, so its count is backed by no file bytes.
+        self.budget
+            .charge(accessor.count.0, (width * std::mem::size_of::<T>()) as u64, &what)?;
 
         let mut out: Vec<T> = match accessor.buffer_view {
             _ if self.decoded_accessors.contains_key(&i) => {
@@ -487,9 +497,6 @@ impl<'a> Reader<'a> {
                     out.extend(bytes[start..start + element].chunks_exact(size).map(decode));
                 }
                 out
-            }
-            None if count > MAX_IMPLICIT_ELEMENTS => {
-                return Err(input(format!("{what} has {count} elements but no buffer view")));
             }
             None => vec![T::default(); count * width],
         };

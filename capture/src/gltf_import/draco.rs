@@ -14,6 +14,7 @@ use draco_oxide_core::types::PointIdx;
 use gltf::json::{self, accessor::ComponentType, validation::Checked};
 use serde::Deserialize;
 
+use super::budget::GeometryBudget;
 use super::{input, valid, Fallible};
 
 pub(super) const EXTENSION: &str = "KHR_draco_mesh_compression";
@@ -28,23 +29,16 @@ struct Compressed {
     attributes: BTreeMap<String, u32>,
 }
 
-/// Decodes every Draco primitive. `view_bytes` gives a buffer view's bytes; the decoded
-/// accessors together may not exceed `max_total` bytes. Returns each decoded accessor's
-/// bytes, by accessor index.
+/// Decodes every Draco primitive. `view_bytes` gives a buffer view's bytes; each stream's
+/// declared size is charged to `budget` before it is decoded. Returns each decoded
+/// accessor's bytes, by accessor index.
 pub(super) fn decode_accessors<'v>(
     root: &json::Root,
     view_bytes: impl Fn(json::Index<json::buffer::View>) -> Fallible<&'v [u8]>,
-    max_total: u64,
+    budget: &GeometryBudget,
 ) -> Fallible<HashMap<usize, Vec<u8>>> {
     let mut decoded: HashMap<usize, Vec<u8>> = HashMap::new();
-    let mut total = 0u64;
     let mut keep = |accessor: usize, bytes: Vec<u8>, what: &str| -> Fallible<()> {
-        total = total.saturating_add(bytes.len() as u64);
-        if total > max_total {
-            return Err(input(format!(
-                "{what}: decoded data exceeds the {max_total} bytes capture reads"
-            )));
-        }
         match decoded.get(&accessor) {
             Some(earlier) if *earlier != bytes => Err(input(format!(
                 "{what}: accessor {accessor} is decoded from two Draco streams with different data"
@@ -68,7 +62,12 @@ pub(super) fn decode_accessors<'v>(
                 .indices
                 .ok_or_else(|| input(format!("{what} has no indices accessor, which the extension requires")))?;
             let index_count = root.accessors.get(indices.value()).map_or(0, |a| a.count.0);
-            check_declared_counts(stream, index_count, &what)?;
+            let (faces, points) = check_declared_counts(stream, index_count, &what)?;
+            // Each corner, and each point's components (at most 4 per attribute), is
+            // decoded to an f64 below; the decoder's own tables are of the same size.
+            let decoded =
+                (faces.saturating_mul(3)).saturating_add(points.saturating_mul(4 * c.attributes.len() as u64));
+            budget.charge(decoded, 8, &what)?;
             // draco-oxide is an alpha: on about 0.5% of random byte edits of a valid stream
             // it panics (a clamp with min > max, an index past its traversal table) instead
             // of returning an error, so its panics are contained and reported the same way.
@@ -110,8 +109,8 @@ pub(super) fn decode_accessors<'v>(
 /// can find that the stream is short: the counts are checked here first against the
 /// primitive's indices accessor (`index_count`), so that a few bytes cannot ask for
 /// gigabytes. Streams with Draco metadata, whose layout only the decoder reads, are
-/// refused (glTF exporters do not write it).
-fn check_declared_counts(stream: &[u8], index_count: u64, what: &str) -> Fallible<()> {
+/// refused (glTF exporters do not write it). Returns the declared faces and vertices.
+fn check_declared_counts(stream: &[u8], index_count: u64, what: &str) -> Fallible<(u64, u64)> {
     use draco_oxide_core::bit_coder::Reader;
     use draco_oxide_core::codec::header::EncoderMethod;
     use draco_oxide_core::utils::bit_coder::leb128_read;
@@ -149,7 +148,7 @@ fn check_declared_counts(stream: &[u8], index_count: u64, what: &str) -> Fallibl
              holds {index_count} indices"
         )));
     }
-    Ok(())
+    Ok((faces, vertices))
 }
 
 /// Every point's components, in point order.

@@ -15,7 +15,6 @@ use gltf::json::{self, material::AlphaMode as JsonAlphaMode, texture::WrappingMo
 use image::{imageops::FilterType, DynamicImage, GenericImageView, ImageDecoder, ImageFormat, RgbaImage};
 
 /// Largest image capture decodes, as RGBA8 bytes (8192 x 8192).
-const MAX_DECODED_IMAGE_BYTES: u64 = 256 << 20;
 use gltf::json::extensions::texture::TextureTransform;
 use shadetrace_formats::{
     phong_from_metallic_roughness, AlphaMode, Material, MaterialMaps, SurfaceMaps, Texture, Wrap,
@@ -46,6 +45,8 @@ pub(super) struct Materials<'a> {
     reader: &'a Reader<'a>,
     base: &'a Path,
     max_texture: u32,
+    /// Largest image decoded, as RGBA8 at full size ([`super::ImportLimits::image_bytes`]).
+    max_image_bytes: u64,
     /// File material (`None`: the default material) to output index.
     by_file_index: BTreeMap<Option<usize>, u32>,
     materials: Vec<Material>,
@@ -81,12 +82,19 @@ fn unparsed_uv_source(set: u32, transform: Option<&json::Value>) -> UvSource {
 }
 
 impl<'a> Materials<'a> {
-    pub fn new(root: &'a json::Root, reader: &'a Reader<'a>, base: &'a Path, max_texture: u32) -> Self {
+    pub fn new(
+        root: &'a json::Root,
+        reader: &'a Reader<'a>,
+        base: &'a Path,
+        max_texture: u32,
+        max_image_bytes: u64,
+    ) -> Self {
         Materials {
             root,
             reader,
             base,
             max_texture,
+            max_image_bytes,
             by_file_index: BTreeMap::new(),
             materials: Vec::new(),
             uv_sources: Vec::new(),
@@ -388,7 +396,7 @@ impl<'a> Materials<'a> {
             .or(data_uri_type.as_deref());
         // The bytes decide: files often carry a wrong or missing mime type.
         if basisu::is_ktx2(&bytes) {
-            let decoded = basisu::decode(&bytes, self.max_texture, MAX_DECODED_IMAGE_BYTES)
+            let decoded = basisu::decode(&bytes, self.max_texture, self.max_image_bytes)
                 .map_err(|e| input(format!("cannot decode {what} of texture {texture}: {e}")))?;
             return Ok(fit_within(DynamicImage::ImageRgba8(decoded), self.max_texture));
         }
@@ -415,14 +423,15 @@ impl<'a> Materials<'a> {
         }
         // Bounded by what the RGBA conversion will hold, before anything is decoded.
         let rgba_bytes = u64::from(width) * u64::from(height) * 4;
-        if rgba_bytes > MAX_DECODED_IMAGE_BYTES {
+        if rgba_bytes > self.max_image_bytes {
             return Err(input(format!(
                 "{what} of texture {texture} is {width}x{height}: {rgba_bytes} bytes as RGBA, more than the \
-                 {MAX_DECODED_IMAGE_BYTES} capture decodes"
+                 {} capture decodes",
+                self.max_image_bytes
             )));
         }
         let mut limits = image::Limits::default();
-        limits.max_alloc = Some(MAX_DECODED_IMAGE_BYTES);
+        limits.max_alloc = Some(self.max_image_bytes);
         decoder.set_limits(limits).map_err(cannot)?;
         let decoded = image::DynamicImage::from_decoder(decoder).map_err(cannot)?;
         Ok(fit_within(decoded, self.max_texture))

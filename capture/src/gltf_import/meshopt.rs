@@ -11,6 +11,7 @@ use std::collections::HashMap;
 use gltf::json;
 use serde::Deserialize;
 
+use super::budget::GeometryBudget;
 use super::{input, Fallible};
 
 /// The extension names this module decodes: the vendor extension and its ratified
@@ -64,14 +65,13 @@ pub(super) fn is_fallback(buffer: &json::Buffer) -> bool {
 }
 
 /// Decodes every compressed buffer view. `buffers` are the loaded buffers (fallbacks
-/// empty); the decoded bytes of all views together may not exceed `max_total` bytes.
+/// empty); each view's decoded bytes are charged to `budget` before they are allocated.
 pub(super) fn decode_views(
     root: &json::Root,
     buffers: &[Vec<u8>],
-    max_total: u64,
+    budget: &GeometryBudget,
 ) -> Fallible<HashMap<usize, Vec<u8>>> {
     let mut decoded = HashMap::new();
-    let mut total = 0u64;
     for (v, view) in root.buffer_views.iter().enumerate() {
         let Some(ext) = view
             .extensions
@@ -92,12 +92,7 @@ pub(super) fn decode_views(
                     c.count, c.byte_stride, view.byte_length.0
                 ))
             })?;
-        total = total.saturating_add(size);
-        if total > max_total {
-            return Err(input(format!(
-                "{what}: decoded views exceed the {max_total} bytes capture reads"
-            )));
-        }
+        budget.charge(size, 1, &what)?;
         let source = buffers
             .get(c.buffer as usize)
             .and_then(|b| {

@@ -165,6 +165,30 @@ pub fn write_gltf_with_nan_position(dir: &Path) -> PathBuf {
     write_json(dir, "nan_position.gltf", &doc)
 }
 
+/// A triangle mesh instanced by `nodes` nodes side by side.
+pub fn write_instanced_triangle(dir: &Path, nodes: usize) -> PathBuf {
+    let mut doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], Some(&[0, 1, 2]));
+    doc["scenes"] = json!([{ "nodes": (0..nodes).collect::<Vec<_>>() }]);
+    doc["nodes"] = (0..nodes)
+        .map(|n| json!({ "mesh": 0, "translation": [n as f32 * 2.0, 0.0, 0.0] }))
+        .collect();
+    write_json(dir, "instanced.gltf", &doc)
+}
+
+/// A triangle list whose `count` positions have no buffer view: all zeros, backed by no
+/// bytes of the file, as the spec allows (sparse accessors use it).
+pub fn write_gltf_with_implicit_positions(dir: &Path, count: u64) -> PathBuf {
+    let doc = json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "componentType": 5126, "count": count, "type": "VEC3",
+                        "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0] }]
+    });
+    write_json(dir, "implicit_positions.gltf", &doc)
+}
+
 /// One triangle with an index (7) beyond its three vertices.
 pub fn write_gltf_with_bad_index(dir: &Path) -> PathBuf {
     let doc = triangle_document(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], Some(&[0, 1, 7]));
