@@ -54,8 +54,8 @@ impl GeometryBudget {
             .and_then(|bytes| self.left.get().checked_sub(bytes))
             .ok_or_else(|| {
                 input(format!(
-                    "{what}: decoding {elements} elements would exceed the {} bytes of geometry capture \
-                     decodes from one file (mesh instances count again)",
+                    "{what}: decoding {elements} x {element_bytes} bytes would exceed the {} bytes of geometry \
+                     capture decodes from one file (mesh instances count again)",
                     self.limit
                 ))
             })?;

@@ -82,17 +82,13 @@ pub(super) fn decode_views(
         };
         let what = format!("buffer view {v} (meshopt compression)");
         let c: Compressed = json::deserialize::from_value(ext.clone()).map_err(|e| input(format!("{what}: {e}")))?;
-        let size = c
-            .count
-            .checked_mul(c.byte_stride)
-            .filter(|&size| size == view.byte_length.0)
-            .ok_or_else(|| {
-                input(format!(
-                    "{what}: count {} x byteStride {} is not the view's byteLength {}",
-                    c.count, c.byte_stride, view.byte_length.0
-                ))
-            })?;
-        budget.charge(size, 1, &what)?;
+        if c.count.checked_mul(c.byte_stride) != Some(view.byte_length.0) {
+            return Err(input(format!(
+                "{what}: count {} x byteStride {} is not the view's byteLength {}",
+                c.count, c.byte_stride, view.byte_length.0
+            )));
+        }
+        budget.charge(c.count, c.byte_stride, &what)?;
         let source = buffers
             .get(c.buffer as usize)
             .and_then(|b| {
