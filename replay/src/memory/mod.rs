@@ -103,13 +103,24 @@ pub struct AccessLog {
     entries: [Vec<u32>; STREAMS],
     last: [u32; STREAMS],
     segments: Vec<Segment>,
+    /// The texture cache's set mask, when the log knows the cache and its sets are a power
+    /// of two (as for every size a power of two in KiB): texture reads it can tell are
+    /// hits are then counted ([`AccessLog::touch`]) instead of logged.
+    texture_set_mask: Option<u32>,
+    /// Per texture cache set, the line this command read or wrote there last, under the
+    /// command's segment number (`number << 32 | line`: an earlier command's is stale).
+    texture_mru: Vec<u64>,
+    /// Texture reads counted as hits, in all.
+    texture_hits: u64,
 }
 
-/// Where one command's accesses start in each stream; they end where the next segment starts.
-#[derive(Clone, Copy, Debug)]
+/// Where one command's accesses start in each stream (and in the counted texture hits);
+/// they end where the next segment starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Segment {
     command: usize,
     start: [usize; STREAMS],
+    texture_hits: u64,
 }
 
 impl Default for AccessLog {
@@ -127,7 +138,26 @@ impl AccessLog {
             segments: vec![Segment {
                 command: 0,
                 start: [0; STREAMS],
+                texture_hits: 0,
             }],
+            texture_set_mask: None,
+            texture_mru: Vec::new(),
+            texture_hits: 0,
+        }
+    }
+
+    /// A log for a texture cache of `bytes`: reads of the line a command last touched in
+    /// its set are counted hits, not entries. The log is replayed a command at a time, so
+    /// within a command that line is still its set's most recent, and reading it changes
+    /// no state: the counts are those of logging it. (Most of a pixel's texels are its
+    /// neighbour's.)
+    pub fn with_texture_cache(bytes: u64) -> Self {
+        let shape = SetShape::of(bytes);
+        let mask = shape.set_mask.and_then(|mask| u32::try_from(mask).ok());
+        AccessLog {
+            texture_set_mask: mask,
+            texture_mru: vec![0; mask.map_or(0, |mask| mask as usize + 1)],
+            ..AccessLog::new()
         }
     }
 
@@ -135,9 +165,14 @@ impl AccessLog {
     /// segment without accesses is dropped, as if it had never begun.
     pub fn begin(&mut self, command: usize) {
         let start = self.entries.each_ref().map(Vec::len);
+        let segment = Segment {
+            command,
+            start,
+            texture_hits: self.texture_hits,
+        };
         match self.segments.last_mut() {
-            Some(last) if last.start == start => last.command = command,
-            _ => self.segments.push(Segment { command, start }),
+            Some(last) if (last.start, last.texture_hits) == (start, self.texture_hits) => last.command = command,
+            _ => self.segments.push(segment),
         }
         self.last = [u32::MAX; STREAMS];
     }
@@ -158,6 +193,16 @@ impl AccessLog {
             return;
         }
         *last = entry;
+        if let (Stream::Texture, Some(mask)) = (stream, self.texture_set_mask) {
+            // Under the segment number, which entries of earlier commands never match.
+            let stamped = (self.segments.len() as u64) << 32 | u64::from(line as u32);
+            let mru = &mut self.texture_mru[(line as u32 & mask) as usize];
+            if !write && *mru == stamped {
+                self.texture_hits += 1;
+                return;
+            }
+            *mru = stamped;
+        }
         self.entries[s].push(entry);
     }
 
@@ -193,7 +238,10 @@ impl AccessLog {
     /// last can be empty ([`Self::begin`] reuses an empty one).
     pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         let end = self.entries.each_ref().map(Vec::len);
-        let open_empty = self.segments.last().is_some_and(|last| last.start == end);
+        let open_empty = self
+            .segments
+            .last()
+            .is_some_and(|last| (last.start, last.texture_hits) == (end, self.texture_hits));
         self.segments[..self.segments.len() - usize::from(open_empty)]
             .iter()
             .enumerate()
@@ -208,6 +256,15 @@ impl AccessLog {
             .get(i + 1)
             .map_or(self.entries[s].len(), |next| next.start[s]);
         &self.entries[s][start..end]
+    }
+
+    /// The texture reads of segment `i` counted as hits.
+    fn texture_hits(&self, i: usize) -> u64 {
+        let end = self
+            .segments
+            .get(i + 1)
+            .map_or(self.texture_hits, |next| next.texture_hits);
+        end - self.segments[i].texture_hits
     }
 
     /// Stream `s`'s accesses of segment `i` with every counted repeat written out: what
@@ -237,6 +294,8 @@ impl AccessLog {
         self.entries.iter_mut().for_each(Vec::clear);
         *self = AccessLog {
             entries: std::mem::take(&mut self.entries),
+            texture_set_mask: self.texture_set_mask,
+            texture_mru: vec![0; self.texture_mru.len()],
             ..AccessLog::new()
         };
     }
@@ -268,10 +327,7 @@ pub struct CacheSizes {
 /// `parts` (a set's state depends only on the lines that map to it, so parts of a cache
 /// replay the same accesses independently and their counts add up to the whole's).
 struct Cache {
-    sets: u64,
-    ways: usize,
-    /// `sets - 1` when `sets` is a power of two, for a mask instead of a division.
-    set_mask: Option<u64>,
+    shape: SetShape,
     part: u64,
     parts: u64,
     /// `sets * ways` slots: `line + 1` (0 = empty) with [`DIRTY`] set when written, most
@@ -280,20 +336,44 @@ struct Cache {
     stats: CacheStats,
 }
 
-#[inline]
-fn set_of(line: u64, sets: u64, set_mask: Option<u64>) -> u64 {
-    match set_mask {
-        Some(mask) => line & mask,
-        None => line % sets,
+/// A cache's sets and ways, and which set a line maps to.
+#[derive(Clone, Copy, Debug)]
+struct SetShape {
+    sets: u64,
+    ways: usize,
+    /// `sets - 1` when `sets` is a power of two, for a mask instead of a division.
+    set_mask: Option<u64>,
+}
+
+impl SetShape {
+    /// The shape of a cache of `bytes`: [`WAYS`] ways (fewer when it has fewer lines).
+    fn of(bytes: u64) -> SetShape {
+        let lines = (bytes / LINE_BYTES).max(1) as usize;
+        let ways = WAYS.min(lines);
+        SetShape::new((lines / ways).max(1) as u64, ways)
+    }
+
+    fn new(sets: u64, ways: usize) -> SetShape {
+        SetShape {
+            sets,
+            ways,
+            set_mask: sets.is_power_of_two().then_some(sets - 1),
+        }
+    }
+
+    #[inline]
+    fn set_of(&self, line: u64) -> u64 {
+        match self.set_mask {
+            Some(mask) => line & mask,
+            None => line % self.sets,
+        }
     }
 }
 
 /// The sets of one part of a cache and their shape, apart from the cache's state.
 #[derive(Clone, Copy)]
 struct PartFilter {
-    sets: u64,
-    set_mask: Option<u64>,
-    ways: usize,
+    shape: SetShape,
     part: u64,
     parts: u64,
 }
@@ -302,14 +382,14 @@ impl PartFilter {
     /// Whether `line` maps to a set of the part (`parts` is a power of two).
     #[inline]
     fn holds(&self, line: u64) -> bool {
-        self.parts == 1 || set_of(line, self.sets, self.set_mask) & (self.parts - 1) == self.part
+        self.parts == 1 || self.shape.set_of(line) & (self.parts - 1) == self.part
     }
 
     /// Whether reading `a` and `b` again, right after reading them, hits twice and leaves
     /// every set as it was: they are the two most recent lines of their set (or each the
     /// most recent of its own), unless one way holds a set they share.
     fn repeats_hit(&self, a: u64, b: u64) -> bool {
-        self.ways >= 2 || set_of(a, self.sets, self.set_mask) != set_of(b, self.sets, self.set_mask)
+        self.shape.ways >= 2 || self.shape.set_of(a) != self.shape.set_of(b)
     }
 }
 
@@ -323,35 +403,24 @@ impl Cache {
     }
 
     fn part(bytes: u64, part: u64, parts: u64) -> Cache {
-        let lines = (bytes / LINE_BYTES).max(1) as usize;
-        let ways = WAYS.min(lines);
-        Cache::shaped((lines / ways).max(1) as u64, ways, part, parts)
+        Cache::shaped(SetShape::of(bytes), part, parts)
     }
 
-    fn shaped(sets: u64, ways: usize, part: u64, parts: u64) -> Cache {
+    fn shaped(shape: SetShape, part: u64, parts: u64) -> Cache {
         debug_assert!(parts.is_power_of_two() && part < parts);
         Cache {
-            sets,
-            ways,
-            set_mask: sets.is_power_of_two().then_some(sets - 1),
+            shape,
             part,
             parts,
-            slots: vec![0; sets as usize * ways],
+            slots: vec![0; shape.sets as usize * shape.ways],
             stats: CacheStats::default(),
         }
-    }
-
-    #[inline]
-    fn set_of(&self, line: u64) -> u64 {
-        set_of(line, self.sets, self.set_mask)
     }
 
     /// Which lines map to the sets this part holds, and the shape that decides repeats.
     fn part_filter(&self) -> PartFilter {
         PartFilter {
-            sets: self.sets,
-            set_mask: self.set_mask,
-            ways: self.ways,
+            shape: self.shape,
             part: self.part,
             parts: self.parts,
         }
@@ -361,8 +430,9 @@ impl Cache {
     #[inline]
     fn access(&mut self, line: u64, write: bool) -> (bool, bool) {
         self.stats.accesses += 1;
-        let base = self.set_of(line) as usize * self.ways;
-        let slots = &mut self.slots[base..base + self.ways];
+        let ways = self.shape.ways;
+        let base = self.shape.set_of(line) as usize * ways;
+        let slots = &mut self.slots[base..base + ways];
         let tag = line + 1;
         let dirty = if write { DIRTY } else { 0 };
         // A hit on the most recently used line changes nothing but its dirty bit: the
@@ -460,7 +530,7 @@ impl Slots {
 /// Replays the memoization cache (one part: its misses allocate slots in order).
 fn replay_memo(entries: u64, segments: &[LogSegment]) -> (MemoOutcome, Slots, CacheStats) {
     let ways = MEMO_WAYS as usize;
-    let mut cache = Cache::shaped((entries / MEMO_WAYS).max(1), ways, 0, 1);
+    let mut cache = Cache::shaped(SetShape::new((entries / MEMO_WAYS).max(1), ways), 0, 1);
     let mut outcome = MemoOutcome::default();
     let mut slots = Slots(Vec::new());
     let mut next = 0u32;
@@ -533,9 +603,14 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         };
         // The stream's two previous entries, which a counted repeat repeats.
         let mut pair = [0u32; 2];
-        let mut repeat_hits = 0u64;
+        // Hits counted rather than replayed: the repeats this part decides, and (in one
+        // part) the texture reads the log counted.
+        let mut counted_hits = 0u64;
         let mut held = [0u32; 256];
         for &(log, i) in segments {
+            if stream == Stream::Texture && part == 0 {
+                counted_hits += log.texture_hits(i);
+            }
             let entries = log.stream(i, stream as usize);
             if stream == Stream::TriangleBuffer {
                 for &entry in entries {
@@ -555,7 +630,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                 if let Some(times) = repeat_count(entry) {
                     let [a, b] = pair.map(|e| u64::from(e & LINE_MASK));
                     if filter.repeats_hit(a, b) {
-                        repeat_hits += times * (u64::from(filter.holds(a)) + u64::from(filter.holds(b)));
+                        counted_hits += times * (u64::from(filter.holds(a)) + u64::from(filter.holds(b)));
                         continue;
                     }
                     for &e in &held[..n] {
@@ -587,7 +662,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
                 access(decoded(e));
             }
         }
-        cache.stats.accesses += repeat_hits;
+        cache.stats.accesses += counted_hits;
         writebacks += cache.flush();
         (dram_lines, writebacks, cache.stats)
     };
@@ -845,6 +920,94 @@ mod tests {
             for threads in [1, 2, 4] {
                 assert_eq!(replay(&counted, threads), expected, "{lines} lines, {threads} threads");
             }
+        }
+    }
+
+    /// A log that knows the texture cache counts the reads it can tell are hits, and they
+    /// replay as the reads logged: on every shape (one set; sets not a power of two, where
+    /// it counts none), with another job's commands replayed between a log's (a line read
+    /// in its previous command is not assumed still there), with writes, counted repeats,
+    /// and a log cleared and reused.
+    #[test]
+    fn texture_hits_the_log_counts_replay_as_the_reads_logged() {
+        for lines in [1u64, 2, 8, 12, 64] {
+            let bytes = lines * LINE_BYTES;
+            let mut x = 7u64;
+            let mut next = |n: u64| {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (x >> 33) % n
+            };
+            // Two jobs' logs, each logged by a log that knows the cache and by one that does not.
+            let mut knowing = [0, 1].map(|_| AccessLog::with_texture_cache(bytes));
+            let mut plain = [0, 1].map(|_| AccessLog::new());
+            let mut replays = Vec::new();
+            for (round, commands) in [1, 4].into_iter().enumerate() {
+                for command in 0..commands {
+                    for job in 0..2 {
+                        let (knowing, plain) = (&mut knowing[job], &mut plain[job]);
+                        knowing.begin(command);
+                        plain.begin(command);
+                        for _ in 0..3000 {
+                            let line = next(3 * lines + 2);
+                            match next(8) {
+                                0 => {
+                                    let (b, times) = (next(3 * lines + 2), next(5) as u32);
+                                    knowing.read_pair(Stream::Texture, line, b, times);
+                                    plain.read_pair(Stream::Texture, line, b, times);
+                                }
+                                1 => {
+                                    knowing.touch(Stream::Texture, line, true);
+                                    plain.touch(Stream::Texture, line, true);
+                                }
+                                2 => {
+                                    knowing.touch(Stream::Depth, line, false);
+                                    plain.touch(Stream::Depth, line, false);
+                                }
+                                _ => {
+                                    knowing.touch(Stream::Texture, line, false);
+                                    plain.touch(Stream::Texture, line, false);
+                                }
+                            }
+                        }
+                    }
+                }
+                let length = |logs: &[AccessLog; 2]| logs.iter().map(AccessLog::len).sum::<usize>();
+                // One set's most recent line is the stream's previous access, which every
+                // log drops.
+                match SetShape::of(bytes).sets {
+                    1 => {}
+                    sets if sets.is_power_of_two() => {
+                        assert!(length(&knowing) < length(&plain), "{lines} lines: no hit was counted")
+                    }
+                    _ => assert_eq!(
+                        length(&knowing),
+                        length(&plain),
+                        "{lines} lines: sets not a power of two"
+                    ),
+                }
+                let sizes = CacheSizes {
+                    texture: bytes,
+                    ..tiny_caches(0)
+                };
+                // The jobs' commands interleaved, as the issue order puts them.
+                let replay = |logs: &[AccessLog; 2], threads| {
+                    let segments: Vec<LogSegment> =
+                        (0..commands).flat_map(|i| [(&logs[0], i), (&logs[1], i)]).collect();
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                    pool.install(|| simulate(sizes, &segments))
+                };
+                let expected = replay(&plain, 1);
+                for threads in [1, 2, 4] {
+                    assert_eq!(
+                        replay(&knowing, threads),
+                        expected,
+                        "{lines} lines, round {round}, {threads} threads"
+                    );
+                }
+                replays.push(expected);
+                knowing.iter_mut().chain(&mut plain).for_each(AccessLog::clear);
+            }
+            assert_ne!(replays[0], replays[1]);
         }
     }
 }

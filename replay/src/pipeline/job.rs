@@ -37,6 +37,8 @@ pub struct JobContext<'a> {
     pub layout: FramebufferLayout,
     pub offsets: &'static [[i64; 2]],
     pub simd_width: u32,
+    /// The texture cache's size, which the job's log counts hits in.
+    pub texture_cache_bytes: u64,
     /// A depth pre-pass ran first: later passes test for equal depth and write none.
     pub z_prepass: bool,
     /// Keep tile buffers after the resolve (a view pass reads them).
@@ -140,7 +142,7 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
     let mut out = JobOutput::new(ctx.simd_width);
     let mut scratch = Scratch::default();
-    let mut log = AccessLog::new();
+    let mut log = AccessLog::with_texture_cache(ctx.texture_cache_bytes);
     // Tiles whose pre-passed depth the scheme has seen.
     let mut prepared = std::collections::BTreeSet::new();
     for (index, command) in job.commands.iter().enumerate() {

@@ -218,6 +218,7 @@ pub fn run_frame(
         layout,
         offsets: sample_offsets(opts.msaa),
         simd_width: opts.simd_width,
+        texture_cache_bytes: opts.texture_cache_kb as u64 * 1024,
         z_prepass,
         keep_buffers: declared.is_some(),
     };
