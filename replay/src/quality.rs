@@ -105,22 +105,7 @@ pub fn ssim_map(a: &[f64], b: &[f64], width: u32, height: u32) -> Option<Vec<f64
     // horizontal pass), so rows can run in parallel without changing any bit.
     map.par_chunks_mut(w).enumerate().for_each_init(
         || RowScratch::new(w),
-        |scratch, (y, out)| {
-            scratch.filter_row(a, b, w, h, y, &weights);
-            let [ux, uy, uxx, uyy, uxy] = scratch.filtered.each_ref().map(|plane| &plane[..w]);
-            for (x, s) in out[..w].iter_mut().enumerate() {
-                let (ux, uy) = (ux[x], uy[x]);
-                // scikit-image's expressions, term for term and in the same order.
-                let vx = uxx[x] - ux * ux;
-                let vy = uyy[x] - uy * uy;
-                let vxy = uxy[x] - ux * uy;
-                let a1 = 2.0 * ux * uy + c1;
-                let a2 = 2.0 * vxy + c2;
-                let b1 = ux * ux + uy * uy + c1;
-                let b2 = vx + vy + c2;
-                *s = (a1 * a2) / (b1 * b2);
-            }
-        },
+        |scratch, (y, out)| scratch.ssim_row(a, b, (w, h, y), &weights, (c1, c2), out),
     );
     Some(map)
 }
@@ -141,11 +126,73 @@ impl RowScratch {
         }
     }
 
+    /// Output row `y` of the SSIM map, in code built for AVX2 where the CPU has it. Its
+    /// loops run pixel by pixel, so wider vectors do the same IEEE operations in the same
+    /// order for each pixel (and AVX2 brings no fused multiply-add): the bits are the
+    /// same on every machine, only 4 pixels go at a time instead of 2.
+    fn ssim_row(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        at: (usize, usize, usize),
+        weights: &[f64; 2 * RADIUS + 1],
+        c: (f64, f64),
+        out: &mut [f64],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            return unsafe { self.ssim_row_avx2(a, b, at, weights, c, out) };
+        }
+        self.ssim_row_portable(a, b, at, weights, c, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn ssim_row_avx2(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        at: (usize, usize, usize),
+        weights: &[f64; 2 * RADIUS + 1],
+        c: (f64, f64),
+        out: &mut [f64],
+    ) {
+        self.ssim_row_portable(a, b, at, weights, c, out)
+    }
+
+    #[inline(always)]
+    fn ssim_row_portable(
+        &mut self,
+        a: &[f64],
+        b: &[f64],
+        (w, h, y): (usize, usize, usize),
+        weights: &[f64; 2 * RADIUS + 1],
+        (c1, c2): (f64, f64),
+        out: &mut [f64],
+    ) {
+        self.filter_row(a, b, w, h, y, weights);
+        let [ux, uy, uxx, uyy, uxy] = self.filtered.each_ref().map(|plane| &plane[..w]);
+        for (x, s) in out[..w].iter_mut().enumerate() {
+            let (ux, uy) = (ux[x], uy[x]);
+            // scikit-image's expressions, term for term and in the same order.
+            let vx = uxx[x] - ux * ux;
+            let vy = uyy[x] - uy * uy;
+            let vxy = uxy[x] - ux * uy;
+            let a1 = 2.0 * ux * uy + c1;
+            let a2 = 2.0 * vxy + c2;
+            let b1 = ux * ux + uy * uy + c1;
+            let b2 = vx + vy + c2;
+            *s = (a1 * a2) / (b1 * b2);
+        }
+    }
+
     /// Gaussian-filters row `y` of x, y, x², y² and xy: first along columns (axis 0), then
     /// along the row (axis 1), the order of `scipy.ndimage.gaussian_filter`. Each output
     /// sums its taps in SciPy's `correlate1d` order for a symmetric kernel (centre first,
     /// then each outermost pair's sum times its weight, inward), so every bit is SciPy's;
     /// the loops run tap by tap along whole rows, which reads memory in order and vectorizes.
+    #[inline(always)]
     fn filter_row(&mut self, a: &[f64], b: &[f64], w: usize, h: usize, y: usize, weights: &[f64; 2 * RADIUS + 1]) {
         let rows: [usize; 2 * RADIUS + 1] =
             std::array::from_fn(|k| reflect(y as isize + k as isize - RADIUS as isize, h));
@@ -275,15 +322,22 @@ pub fn psnr(a: &Rgba8Image, b: &Rgba8Image) -> f64 {
     if !comparable(a, b) {
         return f64::NAN;
     }
-    // Integer squared errors: exact, and independent of summation order.
-    let sum: u64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| u64::from(p[c].abs_diff(q[c])).pow(2)))
-        .sum();
-    let mse = sum as f64 / (3 * a.pixels.len()) as f64;
+    let squares: u64 = a.pixels.iter().zip(&b.pixels).map(|(p, q)| rgb_squares(p, q)).sum();
+    psnr_of(squares, a.pixels.len())
+}
+
+/// PSNR from the sum of the R, G and B codes' squared differences over `pixels` pixels.
+fn psnr_of(squares: u64, pixels: usize) -> f64 {
+    let mse = squares as f64 / (3 * pixels) as f64;
     10.0 * libm::log10((DATA_RANGE * DATA_RANGE) / mse)
+}
+
+/// The squared differences of two pixels' R, G and B codes, summed: integers, so exact
+/// in any order (at most 3 * 255², a u32, so that loops over pixels vectorize).
+#[inline]
+fn rgb_squares(p: &[u8; 4], q: &[u8; 4]) -> u64 {
+    let d = [0, 1, 2].map(|c| u32::from(p[c].abs_diff(q[c])));
+    u64::from(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
 }
 
 /// [`psnr`] as it goes into a report: None instead of infinity (identical images) or NaN
@@ -302,20 +356,26 @@ pub fn max_abs_error(a: &Rgba8Image, b: &Rgba8Image) -> u8 {
     a.pixels
         .iter()
         .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| p[c].abs_diff(q[c])))
+        .map(|(p, q)| rgb_difference(p, q))
         .max()
         .unwrap_or(0)
 }
 
-/// Per pixel, the largest difference of the 8-bit RGB channels (for error images); zero
-/// where a pixel is missing from either image.
-pub fn error_map(reference: &Rgba8Image, test: &Rgba8Image) -> Vec<u8> {
-    reference
-        .pixels
-        .iter()
-        .zip(&test.pixels)
-        .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap_or(0))
-        .collect()
+/// The largest difference of two pixels' R, G and B codes (written out, so loops over
+/// pixels vectorize).
+#[inline]
+fn rgb_difference(p: &[u8; 4], q: &[u8; 4]) -> u8 {
+    p[0].abs_diff(q[0]).max(p[1].abs_diff(q[1])).max(p[2].abs_diff(q[2]))
+}
+
+/// What comparing a view with the reference finds: the metrics, and the per-pixel maps
+/// (for pictures of where the loss is).
+pub struct Comparison {
+    pub quality: Quality,
+    /// Per-pixel SSIM; None where the views are smaller than the SSIM window.
+    pub ssim_map: Option<Vec<f64>>,
+    /// Per pixel, the largest difference of the RGB codes.
+    pub error_map: Vec<u8>,
 }
 
 /// All quality metrics of `test` against `reference` (ARCHITECTURE.md, Definitions:
@@ -325,16 +385,17 @@ pub fn error_map(reference: &Rgba8Image, test: &Rgba8Image) -> Vec<u8> {
 /// differ in size, have no pixels, or have a pixel buffer (or mask) that is not
 /// `width * height` long.
 pub fn compare(reference: &Rgba8Image, test: &Rgba8Image, covered: &[bool]) -> Result<Quality, String> {
-    compare_with_map(reference, test, covered).map(|(quality, _)| quality)
+    compare_views(reference, &luma(reference), test, covered).map(|c| c.quality)
 }
 
-/// [`compare`], and the per-pixel SSIM map it averaged (None where the views are smaller
-/// than the SSIM window), for pictures of where the loss is.
-pub fn compare_with_map(
+/// [`compare`], given the reference's [`luma`] (a reference is compared with every preset,
+/// so its caller computes that once), with the maps behind the metrics.
+pub fn compare_views(
     reference: &Rgba8Image,
+    reference_luma: &[f64],
     test: &Rgba8Image,
     covered: &[bool],
-) -> Result<(Quality, Option<Vec<f64>>), String> {
+) -> Result<Comparison, String> {
     if (reference.width, reference.height) != (test.width, test.height) {
         return Err(format!(
             "cannot compare a {}x{} image with a {}x{} reference",
@@ -357,15 +418,37 @@ pub fn compare_with_map(
             reference.pixels.len()
         ));
     }
+    if reference_luma.len() != reference.pixels.len() {
+        return Err(format!(
+            "a reference luma of {} values for {} pixels",
+            reference_luma.len(),
+            reference.pixels.len()
+        ));
+    }
     let (w, h) = (reference.width, reference.height);
-    let map = ssim_map(&luma(reference), &luma(test), w, h);
+    let map = ssim_map(reference_luma, &luma(test), w, h);
+    // The RGB errors in one pass: the error map, the PSNR's squares and the largest.
+    let mut squares = 0u64;
+    let error_map: Vec<u8> = reference
+        .pixels
+        .iter()
+        .zip(&test.pixels)
+        .map(|(p, q)| {
+            squares += rgb_squares(p, q);
+            rgb_difference(p, q)
+        })
+        .collect();
     let quality = Quality {
         ssim: map.as_ref().map(|m| mean_of_valid(m, w, h)),
         ssim_covered: map.as_ref().and_then(|m| mean_of_covered(m, covered, w, h)),
-        psnr_db: psnr_for_report(reference, test),
-        max_abs_error: max_abs_error(reference, test),
+        psnr_db: Some(psnr_of(squares, reference.pixels.len())).filter(|v| v.is_finite()),
+        max_abs_error: error_map.iter().copied().max().unwrap_or(0),
     };
-    Ok((quality, map))
+    Ok(Comparison {
+        quality,
+        ssim_map: map,
+        error_map,
+    })
 }
 
 #[cfg(test)]
@@ -384,6 +467,30 @@ mod tests {
             *p = [r, g, b, a];
         }
         image
+    }
+
+    /// The AVX2 build of a row gives the portable build's bits, so results do not depend
+    /// on the machine (rows at the borders included, where windows reflect).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn ssim_rows_are_the_same_bits_with_and_without_avx2() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let (w, h) = (37, 23);
+        let (a, b) = (luma(&noise_image(w, h, 1)), luma(&noise_image(w, h, 2)));
+        let (w, h) = (w as usize, h as usize);
+        let weights = gaussian_weights();
+        let c = ((K1 * DATA_RANGE).powi(2), (K2 * DATA_RANGE).powi(2));
+        let mut scratch = RowScratch::new(w);
+        for y in 0..h {
+            let (mut portable, mut wide) = (vec![0.0; w], vec![0.0; w]);
+            scratch.ssim_row_portable(&a, &b, (w, h, y), &weights, c, &mut portable);
+            // SAFETY: the CPU has AVX2, checked above.
+            unsafe { scratch.ssim_row_avx2(&a, &b, (w, h, y), &weights, c, &mut wide) };
+            let bits = |row: &[f64]| row.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&wide), bits(&portable), "row {y}");
+        }
     }
 
     fn all(img: &Rgba8Image) -> Vec<bool> {

@@ -145,10 +145,12 @@ pub fn replay_all(
                     .views
                     .each_ref()
                     .map(|v| v.color.pixels.iter().map(|p| *p != clear).collect());
+                let luma = images.views.each_ref().map(|v| quality::luma(&v.color));
                 Some(ReferenceFrame {
                     result,
                     images,
                     covered,
+                    luma,
                 })
             }
             None => None,
@@ -196,6 +198,8 @@ struct ReferenceFrame {
     result: FrameResult,
     images: FrameImages,
     covered: [Vec<bool>; 2],
+    /// Each view's luma, which every comparison with it reads.
+    luma: [Vec<f64>; 2],
 }
 
 impl Replay {
@@ -273,10 +277,9 @@ impl Replay {
                     let issued = r.result.views[v].cost.issued();
                     let rel = (issued > 0).then(|| view.cost.issued() as f64 / issued as f64);
                     let reference = &r.images.views[v].color;
-                    let error = quality::error_map(reference, color);
-                    let (quality, ssim) = quality::compare_with_map(reference, color, &r.covered[v])?;
-                    let ssim_loss = ssim.map(|m| m.iter().map(|&s| (1.0 - s) as f32).collect());
-                    Ok((rel, Some(quality), Some(error), ssim_loss))
+                    let compared = quality::compare_views(reference, &r.luma[v], color, &r.covered[v])?;
+                    let ssim_loss = compared.ssim_map.map(|m| m.iter().map(|&s| (1.0 - s) as f32).collect());
+                    Ok((rel, Some(compared.quality), Some(compared.error_map), ssim_loss))
                 }
                 None => Ok((None, None, None, None)),
             })
