@@ -54,6 +54,41 @@ fn identical_results_and_images_at_any_thread_count() {
     }
 }
 
+/// `forward` run against the reference records a copy of the reference's replay instead of
+/// replaying it again: its counters and pictures are those of a replay on its own.
+#[test]
+fn the_reference_preset_against_the_reference_is_its_own_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let res = ["--res", "160x180", "--frames", "0..2"];
+    let (with, with_dir) = replay("spheres", "forward", &res, None, dir.path());
+    let alone_args = [&res[..], &["--no-reference"]].concat();
+    let (alone, alone_dir) = replay("spheres", "forward", &alone_args, None, dir.path());
+    let frames = with["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 2);
+    for (f, frame) in frames.iter().enumerate() {
+        let other = &alone["frames"][f];
+        for key in ["traffic", "caches", "lists"] {
+            assert_eq!(frame[key], other[key], "frame {f} {key}");
+        }
+        for v in 0..2 {
+            for key in ["vertex", "raster", "cost"] {
+                assert_eq!(
+                    frame["views"][v][key], other["views"][v][key],
+                    "frame {f} view {v} {key}"
+                );
+            }
+            assert_eq!(frame["views"][v]["quality"]["ssim"], 1.0, "frame {f} view {v}");
+        }
+    }
+    for name in ["frame0000-left.png", "frame0001-right.png", "frame0001-left-cost.png"] {
+        assert_eq!(
+            std::fs::read(with_dir.join(name)).unwrap(),
+            std::fs::read(alone_dir.join(name)).unwrap(),
+            "{name}"
+        );
+    }
+}
+
 #[test]
 fn scheduling_changes_traffic_never_pixels() {
     let dir = tempfile::tempdir().unwrap();

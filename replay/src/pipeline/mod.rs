@@ -107,6 +107,7 @@ impl PreparedScene {
 }
 
 /// Everything one frame of one back-end produced.
+#[derive(Clone)]
 pub struct FrameOutput {
     pub views: [ViewOutput; 2],
     pub traffic: Traffic,
@@ -125,6 +126,7 @@ pub struct FrameOutput {
     pub stage_times: Vec<(&'static str, std::time::Duration)>,
 }
 
+#[derive(Clone)]
 pub struct ViewOutput {
     pub vertex: VertexStats,
     pub raster: RasterStats,
