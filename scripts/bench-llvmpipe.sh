@@ -2,8 +2,8 @@
 # shadetrace against Mesa's llvmpipe rendering the same stereo frame (1280x1440 per eye,
 # 2048² shadow map, Lambert + Phong + 5x5 PCF + trilinear albedo), back to back at 1 and 2
 # threads: ms per frame of forward, tile-pair and amfs (shadetrace's results.json
-# timing.wall_s of one replayed frame, median of REPS runs) beside llvmpipe's frame_ms
-# (bench.py, median of its repetitions), and the ratio. The kit (bench.py, cam.py) is
+# timing.wall_s of one replayed frame, median and min-max of REPS runs) beside llvmpipe's
+# frame_ms (bench.py, median and min-max of its repetitions), and the ratio of the medians. The kit (bench.py, cam.py) is
 # ../shared/anchors/llvmpipe/ beside the repository, or $LLVMPIPE_KIT.
 # Usage: [SHADETRACE_BIN=path] scripts/bench-llvmpipe.sh [--reps N] SCENE.glb...
 # (single-file GLB works best)
@@ -25,8 +25,9 @@ if [ -z "${SHADETRACE_BIN:-}" ]; then cargo build --release --quiet; fi
 bin=$(realpath "${SHADETRACE_BIN:-target/release/shadetrace}")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
-printf '%-18s %7s %-10s %10s %11s %7s\n' scene threads preset "st ms" "llvmpipe ms" ratio
+# "median min max" of numbers, one per line.
+spread() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)], a[1], a[NR]}'; }
+printf '%-18s %7s %-10s %18s %18s %7s\n' scene threads preset "st ms (min-max)" "llvmpipe ms" ratio
 for scene in "$@"; do
   scene=$(realpath "$scene")
   name=$(basename "$scene" | sed 's/\.[^.]*$//')
@@ -35,14 +36,16 @@ for scene in "$@"; do
   for threads in 1 2; do
     python3 "$kit/bench.py" "$scene" --threads "$threads" --shaders full --reps "$reps" --frames 10 --warmup 2 \
       --json "$work/lp.json" >"$work/lp.log" 2>&1 || { cat "$work/lp.log" >&2; exit 1; }
-    lp=$(python3 -c "import json; print(json.load(open('$work/lp.json'))['summary'][0]['frame_ms'])")
+    read -r lp lp_min lp_max < <(python3 -c "import json; s = json.load(open('$work/lp.json'))['summary'][0]
+print(s['frame_ms'], s['frame_ms_min'], s['frame_ms_max'])")
     for preset in forward tile-pair amfs; do
-      ms=$(for _ in $(seq "$reps"); do
+      read -r ms ms_min ms_max < <(for _ in $(seq "$reps"); do
         RAYON_NUM_THREADS=$threads "$bin" replay "$work/$name.strace" --preset "$preset" --frames 0 --no-images \
           --no-reference -q --out "$work/out"
         python3 -c "import json; print(1e3 * json.load(open('$work/out/results.json'))['timing']['wall_s'])"
-      done | median)
-      printf '%-18s %7s %-10s %10.0f %11.0f %7.2f\n' "$name" "$threads" "$preset" "$ms" "$lp" "$(echo "$ms / $lp" | bc -l)"
+      done | spread)
+      printf '%-18s %7s %-10s %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %7.2f\n' "$name" "$threads" "$preset" \
+        "$ms" "$ms_min" "$ms_max" "$lp" "$lp_min" "$lp_max" "$(echo "$ms / $lp" | bc -l)"
     done
   done
 done
