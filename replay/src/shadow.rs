@@ -142,9 +142,11 @@ impl ShadowMap {
 
     fn build_receivers(&self, delta: f32) -> ReceiverHierarchy {
         let n = self.size as usize;
+        let words = n.div_ceil(64);
         let z = |x: usize, y: usize| self.depth[y * n + x];
-        let mut base = vec![(f32::INFINITY, f32::NEG_INFINITY); n * n];
-        for y in 0..n {
+        // Rows are independent at every level: they are built in parallel.
+        let mut base = vec![0u64; words * n];
+        base.par_chunks_mut(words).enumerate().for_each(|(y, row)| {
             for x in 0..n {
                 let c = z(x, y);
                 let ddx = if x > 0 && x + 1 < n {
@@ -157,30 +159,34 @@ impl ShadowMap {
                 } else {
                     0.0
                 };
-                if (-ddx).max(-ddy) >= delta {
-                    base[y * n + x] = (c, c);
-                }
+                row[x / 64] |= u64::from((-ddx).max(-ddy) >= delta) << (x % 64);
             }
-        }
-        let mut levels = vec![(self.size, base)];
-        while levels.last().is_some_and(|(s, _)| *s > 1) {
-            let (size, prev) = levels.last().expect("non-empty");
-            let (size, half) = (*size as usize, (*size as usize).div_ceil(2));
-            let mut next = vec![(f32::INFINITY, f32::NEG_INFINITY); half * half];
-            for y in 0..half {
-                for x in 0..half {
-                    let mut r = (f32::INFINITY, f32::NEG_INFINITY);
+        });
+        let mut hierarchy = ReceiverHierarchy {
+            size: self.size,
+            base,
+            levels: Vec::new(),
+        };
+        let mut size = n;
+        while size > 1 {
+            let half = size.div_ceil(2);
+            let mut next = vec![EMPTY_RANGE; half * half];
+            let level = hierarchy.levels.len();
+            next.par_chunks_mut(half).enumerate().for_each(|(y, row)| {
+                for (x, node) in row.iter_mut().enumerate() {
+                    let mut r = EMPTY_RANGE;
                     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                         let (sx, sy) = ((2 * x + dx).min(size - 1), (2 * y + dy).min(size - 1));
-                        let v = prev[sy * size + sx];
+                        let v = hierarchy.node(&self.depth, level, sx, sy);
                         r = (r.0.min(v.0), r.1.max(v.1));
                     }
-                    next[y * half + x] = r;
+                    *node = r;
                 }
-            }
-            levels.push((half as u32, next));
+            });
+            hierarchy.levels.push((half, next));
+            size = half;
         }
-        ReceiverHierarchy { levels }
+        hierarchy
     }
 
     /// Fraction of the 5x5 footprint around `position` that sees the light (1 = lit).
@@ -296,28 +302,61 @@ fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
         .collect()
 }
 
+/// The depth range of no receiver.
+const EMPTY_RANGE: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
+
 /// Conservative light-space depth ranges of shadow-edge receivers (He et al. §4.2).
 pub struct ReceiverHierarchy {
-    /// (edge size, (min, max) per node) from the full-resolution level up to 1x1.
-    levels: Vec<(u32, Vec<(f32, f32)>)>,
+    /// The map's edge in texels.
+    size: u32,
+    /// The full-resolution level as one bit per texel (rows of whole u64 words): a
+    /// receiver's range is its own depth, which the map holds, so the level costs 1/64 of
+    /// storing ranges.
+    base: Vec<u64>,
+    /// (edge size, (min, max) per node) from half resolution up to 1x1 (each level's edge
+    /// halves, rounding up).
+    levels: Vec<(usize, Vec<(f32, f32)>)>,
 }
 
 impl ReceiverHierarchy {
+    /// Edge in nodes of `level` (0 = full resolution).
+    fn edge(&self, level: usize) -> usize {
+        match level {
+            0 => self.size as usize,
+            _ => self.levels[level - 1].0,
+        }
+    }
+
+    /// Node (`x`, `y`) of `level`; `depth` is the map's.
+    #[inline]
+    fn node(&self, depth: &[f32], level: usize, x: usize, y: usize) -> (f32, f32) {
+        if level == 0 {
+            let n = self.size as usize;
+            let word = self.base[y * n.div_ceil(64) + x / 64];
+            if word >> (x % 64) & 1 != 0 {
+                let c = depth[y * n + x];
+                return (c, c);
+            }
+            return EMPTY_RANGE;
+        }
+        let (edge, nodes) = &self.levels[level - 1];
+        nodes[y * edge + x]
+    }
+
     /// Depth range of receivers within texels `x0..=x1`, `y0..=y1` (clamped to the map),
-    /// from at most 2x2 nodes of the coarsest level that covers the rectangle so.
-    /// An empty range is `(inf, -inf)`.
-    pub fn range(&self, x0: i64, y0: i64, x1: i64, y1: i64) -> (f32, f32) {
-        let size = self.levels[0].0 as i64;
+    /// from at most 2x2 nodes of the coarsest level that covers the rectangle so; `map` is
+    /// the map the hierarchy was built from. An empty range is `(inf, -inf)`.
+    pub fn range(&self, map: &ShadowMap, x0: i64, y0: i64, x1: i64, y1: i64) -> (f32, f32) {
+        let size = i64::from(self.size);
         let (x0, x1) = (x0.clamp(0, size - 1), x1.clamp(0, size - 1));
         let (y0, y1) = (y0.clamp(0, size - 1), y1.clamp(0, size - 1));
         let extent = (x1 - x0).max(y1 - y0).max(1) as u64;
-        let level = (64 - (extent - 1).leading_zeros()).min(self.levels.len() as u32 - 1) as usize;
-        let (lsize, nodes) = &self.levels[level];
-        let lsize = *lsize as i64;
-        let mut r = (f32::INFINITY, f32::NEG_INFINITY);
+        let level = (64 - (extent - 1).leading_zeros()).min(self.levels.len() as u32) as usize;
+        let lsize = self.edge(level) as i64;
+        let mut r = EMPTY_RANGE;
         for y in (y0 >> level)..=(y1 >> level).min(lsize - 1) {
             for x in (x0 >> level)..=(x1 >> level).min(lsize - 1) {
-                let v = nodes[(y * lsize + x) as usize];
+                let v = self.node(&map.depth, level, x as usize, y as usize);
                 r = (r.0.min(v.0), r.1.max(v.1));
             }
         }
@@ -334,7 +373,10 @@ mod tests {
     /// ramp and a step, so that footprints are decided by the block ranges, mixed, or at
     /// the map's edge.
     fn map() -> ShadowMap {
-        let size = 64u32;
+        map_of(64)
+    }
+
+    fn map_of(size: u32) -> ShadowMap {
         let depth = (0..size * size)
             .map(|i| {
                 let (x, y) = (i % size, i / size);
@@ -385,6 +427,46 @@ mod tests {
             prop_assert_eq!(got, lit as f32 / 25.0);
             let logged: Vec<u64> = log.expanded(0, Stream::Texture).into_iter().map(u64::from).collect();
             prop_assert_eq!(logged, lines);
+        }
+    }
+
+    proptest! {
+        /// A range is the union of the receivers (texels whose second depth derivative is
+        /// below `-delta`) under the nodes covering the rectangle at its level, each the
+        /// texel's own depth, wherever the rectangle falls: at the map's edges or past them,
+        /// and on a map whose edge is not a power of two.
+        #[test]
+        fn receiver_ranges_are_the_receivers_beneath(
+            size in prop_oneof![Just(64u32), Just(50u32)],
+            delta in prop_oneof![Just(0.001f32), Just(0.05), Just(0.5)],
+            x0 in -8i64..60, y0 in -8i64..60, w in 0i64..40, h in 0i64..40,
+        ) {
+            let map = map_of(size);
+            let hierarchy = map.receivers(delta);
+            let (x1, y1) = (x0 + w, y0 + h);
+            let n = size as i64;
+            let z = |x: i64, y: i64| map.depth[(y * n + x) as usize];
+            let receives = |x: i64, y: i64| {
+                let c = z(x, y);
+                let ddx = if x > 0 && x + 1 < n { z(x - 1, y) - 2.0 * c + z(x + 1, y) } else { 0.0 };
+                let ddy = if y > 0 && y + 1 < n { z(x, y - 1) - 2.0 * c + z(x, y + 1) } else { 0.0 };
+                (-ddx).max(-ddy) >= delta
+            };
+            let (cx0, cx1, cy0, cy1) = (x0.clamp(0, n - 1), x1.clamp(0, n - 1), y0.clamp(0, n - 1), y1.clamp(0, n - 1));
+            let extent = (cx1 - cx0).max(cy1 - cy0).max(1) as u64;
+            let top = 64 - (n as u64 - 1).leading_zeros();
+            let level = (64 - (extent - 1).leading_zeros()).min(top) as i64;
+            let edge = (0..level).fold(n, |e, _| (e + 1) / 2);
+            let span = |a: i64, b: i64| (a >> level << level)..(((b >> level).min(edge - 1) + 1) << level).min(n);
+            let mut expected = EMPTY_RANGE;
+            for y in span(cy0, cy1) {
+                for x in span(cx0, cx1) {
+                    if receives(x, y) {
+                        expected = (expected.0.min(z(x, y)), expected.1.max(z(x, y)));
+                    }
+                }
+            }
+            prop_assert_eq!(hierarchy.range(&map, x0, y0, x1, y1), expected);
         }
     }
 }

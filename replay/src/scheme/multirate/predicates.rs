@@ -130,7 +130,7 @@ fn receives_edge(map: &ShadowMap, receivers: &ReceiverHierarchy, positions: &[Ve
     if tx1 - tx0 <= 1.0 && ty1 - ty0 <= 1.0 {
         return false;
     }
-    let (rmin, rmax) = receivers.range(tx0 as i64 - 2, ty0 as i64 - 2, tx1 as i64 + 2, ty1 as i64 + 2);
+    let (rmin, rmax) = receivers.range(map, tx0 as i64 - 2, ty0 as i64 - 2, tx1 as i64 + 2, ty1 as i64 + 2);
     let (zmin, zmax) = min_max(p.iter().map(|q| q.2));
     rmin <= zmax && rmax >= zmin
 }
