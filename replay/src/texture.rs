@@ -145,14 +145,15 @@ impl MipTexture {
             (0.0, 0.0)
         };
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let mut fetch = |tx: i64, ty: i64| {
-            let u = wrap(tx, l.width, self.wrap_u);
-            let v = wrap(ty, l.height, self.wrap_v);
+        // The footprint's two columns and two rows, wrapped once each.
+        let (u0, u1) = (wrap(x0, l.width, self.wrap_u), wrap(x0 + 1, l.width, self.wrap_u));
+        let (v0, v1) = (wrap(y0, l.height, self.wrap_v), wrap(y0 + 1, l.height, self.wrap_v));
+        let mut fetch = |u: u32, v: u32| {
             log.touch(Stream::Texture, l.line_of(u, v), false);
             l.texels[(v * l.width + u) as usize]
         };
-        let top = fetch(x0, y0) * (1.0 - fx) + fetch(x0 + 1, y0) * fx;
-        let bottom = fetch(x0, y0 + 1) * (1.0 - fx) + fetch(x0 + 1, y0 + 1) * fx;
+        let top = fetch(u0, v0) * (1.0 - fx) + fetch(u1, v0) * fx;
+        let bottom = fetch(u0, v1) * (1.0 - fx) + fetch(u1, v1) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 }
@@ -161,6 +162,11 @@ impl MipTexture {
 #[inline]
 pub fn wrap(t: i64, size: u32, mode: Wrap) -> u32 {
     let n = size as i64;
+    // Every mode leaves a coordinate inside the texture as it is (the usual case, without
+    // the division of the others).
+    if (0..n).contains(&t) {
+        return t as u32;
+    }
     let r = match mode {
         Wrap::Repeat => t.rem_euclid(n),
         Wrap::ClampToEdge => t.clamp(0, n - 1),
@@ -209,6 +215,30 @@ mod tests {
         }
         assert_eq!(wrap(-1, 4, Wrap::MirroredRepeat), 0);
         assert_eq!(wrap(4, 4, Wrap::MirroredRepeat), 3);
+    }
+
+    /// Coordinates inside the texture skip the modes' arithmetic, which would leave them
+    /// as they are too.
+    #[test]
+    fn wrapping_matches_each_modes_definition() {
+        for size in [1u32, 3, 8] {
+            let n = i64::from(size);
+            for t in -3 * n..3 * n {
+                let mirrored = t.rem_euclid(2 * n);
+                let mirrored = if mirrored < n { mirrored } else { 2 * n - 1 - mirrored };
+                assert_eq!(i64::from(wrap(t, size, Wrap::Repeat)), t.rem_euclid(n), "{t} in {size}");
+                assert_eq!(
+                    i64::from(wrap(t, size, Wrap::ClampToEdge)),
+                    t.clamp(0, n - 1),
+                    "{t} in {size}"
+                );
+                assert_eq!(
+                    i64::from(wrap(t, size, Wrap::MirroredRepeat)),
+                    mirrored,
+                    "{t} in {size}"
+                );
+            }
+        }
     }
 
     #[test]
