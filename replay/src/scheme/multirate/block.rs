@@ -60,23 +60,28 @@ impl CoarseBlock {
         [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
     }
 
-    /// The coarse fragment (0..4) a pixel of the block belongs to.
+    /// The coarse fragment (0..4) a pixel of the block belongs to (screen blocks, whose
+    /// size is a power of two: a shift per axis).
     pub(super) fn fragment_of(&self, x: u32, y: u32) -> usize {
-        let half = self.size / 2;
-        (((y - self.y0) / half) * 2 + (x - self.x0) / half) as usize
+        debug_assert!(self.size.is_power_of_two() && self.size >= 2);
+        let half = self.size.trailing_zeros() - 1;
+        (((y - self.y0) >> half) * 2 + ((x - self.x0) >> half)) as usize
     }
 }
 
 impl MultirateJob {
-    /// Groups quads into blocks of `size` pixels (skipping pixels outside `within`).
+    /// Groups quads into blocks of `size` pixels, a power of two (skipping pixels outside
+    /// `within`).
     pub(super) fn group(quads: &[ShadeQuad], size: u32, within: Option<&CoarseBlock>, out: &mut Vec<CoarseBlock>) {
+        debug_assert!(size.is_power_of_two());
+        let align = !(size - 1);
         for quad in quads {
             for lane in 0..4u32 {
                 let (x, y) = (quad.x + (lane & 1), quad.y + (lane >> 1));
                 if quad.lanes & (1 << lane) == 0 || within.is_some_and(|w| !w.contains(x, y)) {
                     continue;
                 }
-                let (x0, y0) = (x / size * size, y / size * size);
+                let (x0, y0) = (x & align, y & align);
                 let index = match out.iter().position(|b| b.x0 == x0 && b.y0 == y0) {
                     Some(i) => i,
                     None => {

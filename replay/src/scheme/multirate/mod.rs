@@ -104,6 +104,7 @@ impl ShadingScheme for Multirate {
             fine_used: 0,
             order: Vec::new(),
             terms: vec![LightTerm::default(); lights],
+            spare_terms: Vec::new(),
             cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
             reuse_packer: SimdPacker::new(simd_width, lights),
             cells: Vec::new(),
@@ -151,6 +152,9 @@ struct MultirateJob {
     fine_used: usize,
     order: Vec<usize>,
     terms: Vec<LightTerm>,
+    /// The term buffers of the previous unit's blocks, for the next unit's (no allocation
+    /// per block).
+    spare_terms: Vec<Vec<LightTerm>>,
     cache: Option<(CacheConfig, ShadingCache)>,
     reuse_packer: SimdPacker,
     /// Object-space schemes: each block's cell, each quad's lane parameters and lattice
@@ -179,6 +183,7 @@ impl SchemeJob for MultirateJob {
     ) {
         self.coarse_used = 0;
         self.fine_used = 0;
+        self.spare_terms.extend(self.blocks.drain(..).map(|b| b.terms));
         self.terms.resize(self.lights, LightTerm::default());
         self.sources.clear();
         match self.config.cache.map(|c| c.space) {
@@ -207,7 +212,6 @@ impl MultirateJob {
             8
         };
         let mut blocks = std::mem::take(&mut self.blocks);
-        blocks.clear();
         Self::group(quads, first, None, &mut blocks);
         for b in &mut blocks {
             self.shade_block(ctx, b, log);
@@ -236,9 +240,10 @@ impl MultirateJob {
     fn shade_block(&mut self, ctx: &UnitContext, b: &mut CoarseBlock, log: &mut AccessLog) {
         let cfg = self.config;
         let (mut xmin, mut ymin, mut xmax, mut ymax) = (u32::MAX, u32::MAX, 0, 0);
+        let shift = b.size.trailing_zeros();
         for bit in 0..b.size * b.size {
             if b.coverage & (1 << bit) != 0 {
-                let (x, y) = (bit % b.size, bit / b.size);
+                let (x, y) = (bit & (b.size - 1), bit >> shift);
                 (xmin, ymin, xmax, ymax) = (xmin.min(x), ymin.min(y), xmax.max(x), ymax.max(y));
             }
         }
@@ -278,6 +283,9 @@ impl MultirateJob {
             Vec2::new(xa, yb),
             Vec2::new(xb, yb),
         ];
+        if b.terms.capacity() == 0 {
+            b.terms = self.spare_terms.pop().unwrap_or_default();
+        }
         b.terms.clear();
         b.terms.resize(4 * self.lights, LightTerm::default());
         let mut positions = [Vec3::ZERO; 4];

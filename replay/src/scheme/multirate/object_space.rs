@@ -314,6 +314,9 @@ impl MultirateJob {
         let mut blocks = std::mem::take(&mut self.blocks);
         for (index, b) in blocks.iter_mut().enumerate().skip(first) {
             let (cell, pixel) = (self.cells[index].cell, self.cells[index].pixel);
+            if b.terms.capacity() == 0 {
+                b.terms = self.spare_terms.pop().unwrap_or_default();
+            }
             b.terms.clear();
             b.terms.resize(4 * n, Default::default());
             let mut positions = [Vec3::ZERO; 4];
