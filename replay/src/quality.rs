@@ -105,9 +105,34 @@ pub fn ssim_map(a: &[f64], b: &[f64], width: u32, height: u32) -> Option<Vec<f64
     // horizontal pass), so rows can run in parallel without changing any bit.
     map.par_chunks_mut(w).enumerate().for_each_init(
         || RowScratch::new(w),
-        |scratch, (y, out)| scratch.ssim_row(a, b, (w, h, y), &weights, (c1, c2), out),
+        |scratch, (y, out)| {
+            let row = SsimRow {
+                a,
+                b,
+                width: w,
+                height: h,
+                y,
+                weights: &weights,
+                c1,
+                c2,
+            };
+            scratch.ssim_row(&row, out)
+        },
     );
     Some(map)
+}
+
+/// What one output row of the SSIM map is computed from: the two images, their size, the
+/// row, the Gaussian weights and the stabilizing constants.
+struct SsimRow<'a> {
+    a: &'a [f64],
+    b: &'a [f64],
+    width: usize,
+    height: usize,
+    y: usize,
+    weights: &'a [f64; 2 * RADIUS + 1],
+    c1: f64,
+    c2: f64,
 }
 
 /// Per-thread buffers for one output row of the five filtered quantities.
@@ -130,47 +155,33 @@ impl RowScratch {
     /// loops run pixel by pixel, so wider vectors do the same IEEE operations in the same
     /// order for each pixel (and AVX2 brings no fused multiply-add): the bits are the
     /// same on every machine, only 4 pixels go at a time instead of 2.
-    fn ssim_row(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        at: (usize, usize, usize),
-        weights: &[f64; 2 * RADIUS + 1],
-        c: (f64, f64),
-        out: &mut [f64],
-    ) {
+    fn ssim_row(&mut self, row: &SsimRow, out: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, checked just above.
-            return unsafe { self.ssim_row_avx2(a, b, at, weights, c, out) };
+            return unsafe { self.ssim_row_avx2(row, out) };
         }
-        self.ssim_row_portable(a, b, at, weights, c, out)
+        self.ssim_row_portable(row, out)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn ssim_row_avx2(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        at: (usize, usize, usize),
-        weights: &[f64; 2 * RADIUS + 1],
-        c: (f64, f64),
-        out: &mut [f64],
-    ) {
-        self.ssim_row_portable(a, b, at, weights, c, out)
+    unsafe fn ssim_row_avx2(&mut self, row: &SsimRow, out: &mut [f64]) {
+        self.ssim_row_portable(row, out)
     }
 
     #[inline(always)]
-    fn ssim_row_portable(
-        &mut self,
-        a: &[f64],
-        b: &[f64],
-        (w, h, y): (usize, usize, usize),
-        weights: &[f64; 2 * RADIUS + 1],
-        (c1, c2): (f64, f64),
-        out: &mut [f64],
-    ) {
+    fn ssim_row_portable(&mut self, row: &SsimRow, out: &mut [f64]) {
+        let &SsimRow {
+            a,
+            b,
+            width: w,
+            height: h,
+            y,
+            weights,
+            c1,
+            c2,
+        } = row;
         self.filter_row(a, b, w, h, y, weights);
         let [ux, uy, uxx, uyy, uxy] = self.filtered.each_ref().map(|plane| &plane[..w]);
         for (x, s) in out[..w].iter_mut().enumerate() {
@@ -481,13 +492,22 @@ mod tests {
         let (a, b) = (luma(&noise_image(w, h, 1)), luma(&noise_image(w, h, 2)));
         let (w, h) = (w as usize, h as usize);
         let weights = gaussian_weights();
-        let c = ((K1 * DATA_RANGE).powi(2), (K2 * DATA_RANGE).powi(2));
         let mut scratch = RowScratch::new(w);
         for y in 0..h {
+            let row = SsimRow {
+                a: &a,
+                b: &b,
+                width: w,
+                height: h,
+                y,
+                weights: &weights,
+                c1: (K1 * DATA_RANGE).powi(2),
+                c2: (K2 * DATA_RANGE).powi(2),
+            };
             let (mut portable, mut wide) = (vec![0.0; w], vec![0.0; w]);
-            scratch.ssim_row_portable(&a, &b, (w, h, y), &weights, c, &mut portable);
+            scratch.ssim_row_portable(&row, &mut portable);
             // SAFETY: the CPU has AVX2, checked above.
-            unsafe { scratch.ssim_row_avx2(&a, &b, (w, h, y), &weights, c, &mut wide) };
+            unsafe { scratch.ssim_row_avx2(&row, &mut wide) };
             let bits = |row: &[f64]| row.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&wide), bits(&portable), "row {y}");
         }
