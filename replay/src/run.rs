@@ -104,7 +104,8 @@ impl ReplayStep<'_> {
 /// Replays `trace` with each `(preset, options)` of `runs`, frame by frame in lockstep with
 /// the reference (`forward` under `reference` options, when given) so that relative cost and
 /// quality are measured per frame while only one frame's images are alive. A run of the
-/// reference preset itself is compared against the reference run (two replays, not three).
+/// reference preset itself, under the reference's options, is a copy of the reference run (one
+/// replay, not two).
 /// `progress` hears after every run of every frame.
 pub fn replay_all(
     trace: &LoadedTrace,

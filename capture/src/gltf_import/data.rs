@@ -460,17 +460,19 @@ impl<'a> Reader<'a> {
         let size = component.size();
         let element = width * size;
         let count = to_usize(accessor.count.0, &what)?;
+        if let Some(bytes) = self.decoded_accessors.get(&i) {
+            // Draco accessors have no sparse part: their elements are all there is (as many
+            // as the stream decoded, whatever `count` says).
+            self.budget
+                .charge((bytes.len() / size) as u64, std::mem::size_of::<T>() as u64, &what)?;
+            return Ok(bytes.chunks_exact(size).map(decode).collect());
+        }
         // Charged before anything is allocated: an accessor without a buffer view is
         // all zeros, so its count is backed by no file bytes.
         self.budget
             .charge(accessor.count.0, (width * std::mem::size_of::<T>()) as u64, &what)?;
 
         let mut out: Vec<T> = match accessor.buffer_view {
-            _ if self.decoded_accessors.contains_key(&i) => {
-                let bytes = &self.decoded_accessors[&i];
-                // Draco accessors have no sparse part: their elements are all there is.
-                return Ok(bytes.chunks_exact(size).map(decode).collect());
-            }
             Some(v) => {
                 let bytes = self.view_bytes(v)?;
                 let view = &self.root.buffer_views[v.value()];

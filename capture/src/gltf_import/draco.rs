@@ -63,10 +63,9 @@ pub(super) fn decode_accessors<'v>(
                 .ok_or_else(|| input(format!("{what} has no indices accessor, which the extension requires")))?;
             let index_count = root.accessors.get(indices.value()).map_or(0, |a| a.count.0);
             let (faces, points) = check_declared_counts(stream, index_count, &what)?;
-            // Each corner, and each point's components (at most 4 per attribute), is
-            // decoded to an f64 below; the decoder's own tables are of the same size.
-            let decoded =
-                (faces.saturating_mul(3)).saturating_add(points.saturating_mul(4 * c.attributes.len() as u64));
+            // The decoder's tables, before it runs: 8 bytes per corner and per point of each
+            // attribute the file lists. What is unpacked from them is charged below.
+            let decoded = (faces.saturating_mul(3)).saturating_add(points.saturating_mul(c.attributes.len() as u64));
             budget.charge(decoded, 8, &what)?;
             // draco-oxide is an alpha: on about 0.5% of random byte edits of a valid stream
             // it panics (a clamp with min > max, an index past its traversal table) instead
@@ -75,6 +74,7 @@ pub(super) fn decode_accessors<'v>(
                 .map_err(|panic| input(format!("{what}: corrupt Draco data (the decoder failed: {panic})")))?
                 .map_err(|e| input(format!("{what}: corrupt Draco data ({e})")))?;
             let points = mesh.attributes.first().map_or(0, Attribute::len);
+            budget.charge(mesh.faces.len() as u64 * 3, 8, &format!("{what} indices"))?;
             let corners: Vec<f64> = mesh.faces.iter().flatten().map(|&p| usize::from(p) as f64).collect();
             let bytes = pack(root, indices.value(), &corners, 1, &format!("{what} indices"))?;
             keep(indices.value(), bytes, &what)?;
@@ -96,6 +96,9 @@ pub(super) fn decode_accessors<'v>(
                 if attribute.len() != points {
                     return Err(input(format!("{name}: {} values for {points} points", attribute.len())));
                 }
+                // Each component is unpacked to an f64 (a stream's attribute may have more
+                // components than its accessor, which `pack` refuses after).
+                budget.charge((points * attribute.get_num_components()) as u64, 8, &name)?;
                 let values = values(attribute).ok_or_else(|| input(format!("{name}: unsupported Draco data type")))?;
                 let bytes = pack(root, accessor, &values, attribute.get_num_components(), &name)?;
                 keep(accessor, bytes, &what)?;

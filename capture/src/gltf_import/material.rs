@@ -11,11 +11,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use glam::Vec2;
+use gltf::json::extensions::texture::TextureTransform;
 use gltf::json::{self, material::AlphaMode as JsonAlphaMode, texture::WrappingMode};
 use image::{imageops::FilterType, DynamicImage, GenericImageView, ImageDecoder, ImageFormat, RgbaImage};
-
-/// Largest image capture decodes, as RGBA8 bytes (8192 x 8192).
-use gltf::json::extensions::texture::TextureTransform;
 use shadetrace_formats::{
     phong_from_metallic_roughness, AlphaMode, Material, MaterialMaps, SurfaceMaps, Texture, Wrap,
 };

@@ -103,12 +103,14 @@ pub struct AccessLog {
     entries: [Vec<u32>; STREAMS],
     last: [u32; STREAMS],
     segments: Vec<Segment>,
-    /// The texture cache's set mask, when the log knows the cache and its sets are a power
-    /// of two (as for every size a power of two in KiB): texture reads it can tell are
-    /// hits are then counted ([`AccessLog::touch`]) instead of logged.
-    texture_set_mask: Option<u32>,
-    /// Per texture cache set, the line this command read or wrote there last, under the
-    /// command's segment number (`number << 32 | line`: an earlier command's is stale).
+    /// The mask of [`Self::texture_mru`]'s slots, when the log knows the texture cache and
+    /// its sets are a power of two (as for every size a power of two in KiB): texture
+    /// reads it can tell are hits are then counted ([`AccessLog::touch`]) instead of logged.
+    texture_slot_mask: Option<u32>,
+    /// Per slot (a texture cache set, or at most [`MRU_SLOTS`] sets sharing one), the line
+    /// this command read or wrote there last, under the command's segment number
+    /// (`number << 32 | line`: an earlier command's is stale). Sets sharing a slot only
+    /// displace each other's line, which then is logged, not counted: still exact.
     texture_mru: Vec<u64>,
     /// Texture reads counted as hits, in all.
     texture_hits: u64,
@@ -116,7 +118,7 @@ pub struct AccessLog {
 
 /// Where one command's accesses start in each stream (and in the counted texture hits);
 /// they end where the next segment starts.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 struct Segment {
     command: usize,
     start: [usize; STREAMS],
@@ -140,7 +142,7 @@ impl AccessLog {
                 start: [0; STREAMS],
                 texture_hits: 0,
             }],
-            texture_set_mask: None,
+            texture_slot_mask: None,
             texture_mru: Vec::new(),
             texture_hits: 0,
         }
@@ -153,9 +155,9 @@ impl AccessLog {
     /// neighbour's.)
     pub fn with_texture_cache(bytes: u64) -> Self {
         let shape = SetShape::of(bytes);
-        let mask = shape.set_mask.and_then(|mask| u32::try_from(mask).ok());
+        let mask = shape.set_mask.map(|mask| mask.min(MRU_SLOTS - 1) as u32);
         AccessLog {
-            texture_set_mask: mask,
+            texture_slot_mask: mask,
             texture_mru: vec![0; mask.map_or(0, |mask| mask as usize + 1)],
             ..AccessLog::new()
         }
@@ -193,7 +195,7 @@ impl AccessLog {
             return;
         }
         *last = entry;
-        if let (Stream::Texture, Some(mask)) = (stream, self.texture_set_mask) {
+        if let (Stream::Texture, Some(mask)) = (stream, self.texture_slot_mask) {
             // Under the segment number, which entries of earlier commands never match.
             let stamped = (self.segments.len() as u64) << 32 | u64::from(line as u32);
             let mru = &mut self.texture_mru[(line as u32 & mask) as usize];
@@ -292,10 +294,11 @@ impl AccessLog {
     /// logs, e.g. a measurement that is not replayed).
     pub fn clear(&mut self) {
         self.entries.iter_mut().for_each(Vec::clear);
+        self.texture_mru.fill(0);
         *self = AccessLog {
             entries: std::mem::take(&mut self.entries),
-            texture_set_mask: self.texture_set_mask,
-            texture_mru: vec![0; self.texture_mru.len()],
+            texture_slot_mask: self.texture_slot_mask,
+            texture_mru: std::mem::take(&mut self.texture_mru),
             ..AccessLog::new()
         };
     }
@@ -304,6 +307,9 @@ impl AccessLog {
         self.len() == 0
     }
 }
+
+/// Slots of a log's texture table at most: a job's log stays small whatever the cache.
+const MRU_SLOTS: u64 = 256;
 
 /// One command's accesses: a log and one of its segments.
 pub type LogSegment<'a> = (&'a AccessLog, usize);
@@ -925,12 +931,13 @@ mod tests {
 
     /// A log that knows the texture cache counts the reads it can tell are hits, and they
     /// replay as the reads logged: on every shape (one set; sets not a power of two, where
-    /// it counts none), with another job's commands replayed between a log's (a line read
-    /// in its previous command is not assumed still there), with writes, counted repeats,
-    /// and a log cleared and reused.
+    /// it counts none; more sets than the log's table has slots), with another job's
+    /// commands replayed between a log's (a line read in its previous command is not
+    /// assumed still there), with writes, counted repeats, and a log cleared and reused.
     #[test]
     fn texture_hits_the_log_counts_replay_as_the_reads_logged() {
-        for lines in [1u64, 2, 8, 12, 64] {
+        // (cache lines, lines touched)
+        for (lines, span) in [(1u64, 5u64), (2, 8), (8, 26), (12, 38), (64, 194), (4096, 600)] {
             let bytes = lines * LINE_BYTES;
             let mut x = 7u64;
             let mut next = |n: u64| {
@@ -948,10 +955,10 @@ mod tests {
                         knowing.begin(command);
                         plain.begin(command);
                         for _ in 0..3000 {
-                            let line = next(3 * lines + 2);
+                            let line = next(span);
                             match next(8) {
                                 0 => {
-                                    let (b, times) = (next(3 * lines + 2), next(5) as u32);
+                                    let (b, times) = (next(span), next(5) as u32);
                                     knowing.read_pair(Stream::Texture, line, b, times);
                                     plain.read_pair(Stream::Texture, line, b, times);
                                 }
