@@ -354,7 +354,12 @@ fn rgb_squares(p: &[u8; 4], q: &[u8; 4]) -> u64 {
 /// [`psnr`] as it goes into a report: None instead of infinity (identical images) or NaN
 /// (images that cannot be compared), since JSON has neither.
 pub fn psnr_for_report(a: &Rgba8Image, b: &Rgba8Image) -> Option<f64> {
-    Some(psnr(a, b)).filter(|v| v.is_finite())
+    reported(psnr(a, b))
+}
+
+/// A PSNR as reports carry it: None for infinity or NaN, which JSON has not.
+fn reported(psnr: f64) -> Option<f64> {
+    Some(psnr).filter(|v| v.is_finite())
 }
 
 /// Largest absolute difference of any R, G or B code between corresponding pixels.
@@ -452,7 +457,7 @@ pub fn compare_views(
     let quality = Quality {
         ssim: map.as_ref().map(|m| mean_of_valid(m, w, h)),
         ssim_covered: map.as_ref().and_then(|m| mean_of_covered(m, covered, w, h)),
-        psnr_db: Some(psnr_of(squares, reference.pixels.len())).filter(|v| v.is_finite()),
+        psnr_db: reported(psnr_of(squares, reference.pixels.len())),
         max_abs_error: error_map.iter().copied().max().unwrap_or(0),
     };
     Ok(Comparison {

@@ -125,6 +125,13 @@ struct Segment {
     texture_hits: u64,
 }
 
+impl Segment {
+    /// Whether the segment starts where the log ends (it has no accesses yet).
+    fn is_at(&self, entries: &[Vec<u32>; STREAMS], texture_hits: u64) -> bool {
+        self.texture_hits == texture_hits && self.start.iter().zip(entries).all(|(&s, e)| s == e.len())
+    }
+}
+
 impl Default for AccessLog {
     fn default() -> Self {
         AccessLog::new()
@@ -166,15 +173,13 @@ impl AccessLog {
     /// Starts the accesses of command `command` (an index its job knows it by). A previous
     /// segment without accesses is dropped, as if it had never begun.
     pub fn begin(&mut self, command: usize) {
-        let start = self.entries.each_ref().map(Vec::len);
-        let segment = Segment {
-            command,
-            start,
-            texture_hits: self.texture_hits,
-        };
         match self.segments.last_mut() {
-            Some(last) if (last.start, last.texture_hits) == (start, self.texture_hits) => last.command = command,
-            _ => self.segments.push(segment),
+            Some(last) if last.is_at(&self.entries, self.texture_hits) => last.command = command,
+            _ => self.segments.push(Segment {
+                command,
+                start: self.entries.each_ref().map(Vec::len),
+                texture_hits: self.texture_hits,
+            }),
         }
         self.last = [u32::MAX; STREAMS];
     }
@@ -239,11 +244,10 @@ impl AccessLog {
     /// The segments that made accesses: (segment index, command index), in order. Only the
     /// last can be empty ([`Self::begin`] reuses an empty one).
     pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        let end = self.entries.each_ref().map(Vec::len);
         let open_empty = self
             .segments
             .last()
-            .is_some_and(|last| (last.start, last.texture_hits) == (end, self.texture_hits));
+            .is_some_and(|last| last.is_at(&self.entries, self.texture_hits));
         self.segments[..self.segments.len() - usize::from(open_empty)]
             .iter()
             .enumerate()
