@@ -1,7 +1,7 @@
 //! Rasterization of one triangle inside one tile into 2x2 quads, with per-sample coverage
 //! (MSAA 1/4/8, standard sample positions) and pixel centres at +0.5.
 
-use crate::vertex_stage::{SetupTriangle, SUBPIXEL};
+use crate::vertex_stage::{SetupTriangle, SUBPIXEL, SUBPIXEL_BITS};
 
 /// Sample offsets from the pixel's top-left corner in 1/16 pixel (D3D standard patterns).
 pub fn sample_offsets(msaa: u32) -> &'static [[i64; 2]] {
@@ -61,9 +61,10 @@ pub fn overlaps(t: &SetupTriangle, r: Rect) -> bool {
 /// Calls `emit` for every quad of the tile the triangle covers, in raster order.
 ///
 /// Per row of samples, each edge function is linear in x, so the samples it accepts form
-/// one interval of pixel columns, found exactly by integer division; a quad's coverage is
-/// then a few comparisons, and columns outside every interval are never visited. The
-/// result is exactly the per-sample edge test's (tested against it).
+/// one interval of pixel columns; a quad's coverage is then a few comparisons, and columns
+/// outside every interval are never visited. The intervals are exact: each edge's bound is
+/// kept as a quotient and remainder ([`ColumnSeries`]) and stepped from row to row without
+/// dividing. The result is exactly the per-sample edge test's (tested against it).
 pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: impl FnMut(Quad)) {
     let x0 = t.bbox[0].max(tile.x0) & !1;
     let y0 = t.bbox[1].max(tile.y0) & !1;
@@ -76,23 +77,31 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     // The pixel columns the quads of [x0, x1) reach, inside the tile.
     let last_quad = x0 + (x1 - 1 - x0) / 2 * 2;
     let (col_lo, col_hi) = (x0.max(tile.x0) as i64, (last_quad + 1).min(tile.x1 - 1) as i64);
-    // Per lane row (0, 1) and sample: the covered columns [lo, hi] (empty when lo > hi).
+    // Per lane row (0, 1) and sample: the edges along rows y0 + r, y0 + r + 2, ...
+    let mut series = [[ColumnSeries::default(); 8]; 2];
+    for (r, row) in series.iter_mut().enumerate() {
+        for (s, &off) in offsets.iter().enumerate() {
+            row[s] = ColumnSeries::new(t, y0 + r as u32, off);
+        }
+    }
+    // Per lane row and sample: the covered columns [lo, hi] (empty when lo > hi).
     let mut spans = [[(0i64, -1i64); 8]; 2];
     let mut y = y0;
     while y < y1 {
         let (mut row_lo, mut row_hi) = (i64::MAX, i64::MIN);
-        for (r, row) in spans.iter_mut().enumerate() {
+        for (r, (row, row_series)) in spans.iter_mut().zip(&mut series).enumerate() {
             let py = y + r as u32;
-            for (s, &off) in offsets.iter().enumerate() {
-                row[s] = if py >= tile.y1 || py < tile.y0 {
+            for (span, columns) in row[..samples].iter_mut().zip(&mut row_series[..samples]) {
+                *span = if py >= tile.y1 || py < tile.y0 {
                     (0, -1)
                 } else {
-                    let (lo, hi) = covered_columns(t, py, off);
+                    let (lo, hi) = columns.columns();
                     (lo.max(col_lo), hi.min(col_hi))
                 };
-                if row[s].0 <= row[s].1 {
-                    row_lo = row_lo.min(row[s].0);
-                    row_hi = row_hi.max(row[s].1);
+                columns.step();
+                if span.0 <= span.1 {
+                    row_lo = row_lo.min(span.0);
+                    row_hi = row_hi.max(span.1);
                 }
             }
         }
@@ -118,28 +127,89 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     }
 }
 
-/// The pixel columns whose sample at `offset` in row `py` all three edges accept:
-/// `[lo, hi]`, empty when `lo > hi`.
-fn covered_columns(t: &SetupTriangle, py: u32, offset: [i64; 2]) -> (i64, i64) {
-    let sy = py as i64 * SUBPIXEL + offset[1] * (SUBPIXEL / 16);
-    let ox = offset[0] * (SUBPIXEL / 16);
-    let (mut lo, mut hi) = (i64::MIN, i64::MAX);
-    for (i, (a, b)) in [(t.v[1], t.v[2]), (t.v[2], t.v[0]), (t.v[0], t.v[1])]
-        .into_iter()
-        .enumerate()
-    {
-        // E(sx) = (b0 - a0)(sy - a1) - d (sx - a0) >= bias  <=>  d sx <= m.
-        let d = b[1] - a[1];
-        let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - t.bias[i];
-        match d.signum() {
-            0 if m < 0 => return (0, -1),
-            0 => {}
-            // sx <= m / d, sx = px SUBPIXEL + ox.
-            1 => hi = hi.min(floor_div(floor_div(m, d) - ox, SUBPIXEL)),
-            _ => lo = lo.max(ceil_div(ceil_div(m, d) - ox, SUBPIXEL)),
+/// The pixel columns whose sample at one offset all three edges accept, along every other
+/// sample row. Edge `i` accepts sample x where `d sx <= m` (`d = b1 - a1`; `m` linear in the
+/// row), so its bound is `floor(m / |d|)`, kept as quotient and remainder: two rows down,
+/// `m` grows by a constant, and so does the pair, with one carry.
+#[derive(Clone, Copy, Default)]
+struct ColumnSeries {
+    edges: [EdgeSeries; 3],
+    /// The sample's x offset in subpixels.
+    ox: i64,
+}
+
+#[derive(Clone, Copy, Default)]
+struct EdgeSeries {
+    /// The sign of `d`: which bound the edge sets (0: none, or every column when `m < 0`).
+    side: i64,
+    /// `|d|`, and `m = q |d| + r` with `0 <= r < |d|` (for `d = 0`, `q = m`).
+    divisor: i64,
+    q: i64,
+    r: i64,
+    /// The change of `(q, r)` from one row of the series to the next.
+    step_q: i64,
+    step_r: i64,
+}
+
+impl ColumnSeries {
+    /// The series starting at sample row `py`.
+    fn new(t: &SetupTriangle, py: u32, offset: [i64; 2]) -> ColumnSeries {
+        let sy = py as i64 * SUBPIXEL + offset[1] * (SUBPIXEL / 16);
+        let mut edges = [EdgeSeries::default(); 3];
+        for (i, (a, b)) in [(t.v[1], t.v[2]), (t.v[2], t.v[0]), (t.v[0], t.v[1])]
+            .into_iter()
+            .enumerate()
+        {
+            // E(sx) = (b0 - a0)(sy - a1) - d (sx - a0) >= bias  <=>  d sx <= m.
+            let d = b[1] - a[1];
+            let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - t.bias[i];
+            let dm = (b[0] - a[0]) * 2 * SUBPIXEL;
+            let divisor = d.abs().max(1);
+            let (q, step_q) = (floor_div(m, divisor), floor_div(dm, divisor));
+            edges[i] = EdgeSeries {
+                side: d.signum(),
+                divisor,
+                q,
+                r: m - q * divisor,
+                step_q,
+                step_r: dm - step_q * divisor,
+            };
+        }
+        ColumnSeries {
+            edges,
+            ox: offset[0] * (SUBPIXEL / 16),
         }
     }
-    (lo, hi)
+
+    /// This row's covered columns `[lo, hi]`, empty when `lo > hi`.
+    #[inline]
+    fn columns(&self) -> (i64, i64) {
+        let (mut lo, mut hi) = (i64::MIN, i64::MAX);
+        for e in &self.edges {
+            match e.side {
+                0 if e.q < 0 => return (0, -1),
+                0 => {}
+                // sx <= floor(m / d), sx = px SUBPIXEL + ox.
+                1 => hi = hi.min((e.q - self.ox) >> SUBPIXEL_BITS),
+                // sx >= ceil(m / d) = -floor(m / |d|).
+                _ => lo = lo.max(-((e.q + self.ox) >> SUBPIXEL_BITS)),
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Moves to the series' next row, two sample rows down.
+    #[inline]
+    fn step(&mut self) {
+        for e in &mut self.edges {
+            e.q += e.step_q;
+            e.r += e.step_r;
+            if e.r >= e.divisor {
+                e.r -= e.divisor;
+                e.q += 1;
+            }
+        }
+    }
 }
 
 fn floor_div(a: i64, b: i64) -> i64 {
@@ -149,10 +219,6 @@ fn floor_div(a: i64, b: i64) -> i64 {
     } else {
         q
     }
-}
-
-fn ceil_div(a: i64, b: i64) -> i64 {
-    -floor_div(-a, b)
 }
 
 #[cfg(test)]
