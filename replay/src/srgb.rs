@@ -1,10 +1,11 @@
 //! sRGB encoding of linear colour, shared by the pipeline's resolve and the pictures.
 //!
 //! The transfer function is defined once ([`encode_exact`], `libm` so that it is the same on
-//! every platform); what runs per channel is a search of the 255 code boundaries it implies,
-//! found once by bisection. The function is monotonic, so the search gives exactly its bytes
-//! (checked on every boundary in the tests, and over every `f32` in [0, 1] by an ignored
-//! test), at a fraction of a `pow` per channel.
+//! every platform); what runs per channel is a count of the 255 code boundaries it implies
+//! (found once by bisection) up to the value: a table gives the count at the start of the
+//! value's bucket of floats, and at most a step or two over the boundaries follows. The
+//! function is monotonic, so the count gives exactly its bytes (checked on every boundary in
+//! the tests, and over every `f32` in [0, 1] by an ignored test), at a fraction of a `pow`.
 
 use std::sync::OnceLock;
 
@@ -14,8 +15,37 @@ use std::sync::OnceLock;
 #[inline]
 pub fn linear_to_srgb8(c: f32) -> u8 {
     let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
-    // The number of codes 1..=255 whose boundary `c` has reached.
-    boundaries().partition_point(|&b| b <= c) as u8
+    // The number of codes 1..=255 whose boundary `c` has reached: those below its bucket's
+    // first float, then the few inside the bucket up to `c`.
+    let (boundaries, buckets) = tables();
+    // (-0.0, which the clamp keeps, is 0.0's bucket.)
+    let mut code = buckets[((c.to_bits() & !(1 << 31)) >> BUCKET_SHIFT) as usize];
+    while let Some(&b) = boundaries.get(code as usize) {
+        if b > c {
+            break;
+        }
+        code += 1;
+    }
+    code
+}
+
+/// Floats in [0, 1] sharing their bits above this shift share a bucket: 2^16 consecutive
+/// floats, at most 0.8% apart, so few boundaries fall in one (they are 0.4% apart or more).
+const BUCKET_SHIFT: u32 = 16;
+
+/// The boundaries, and per bucket of floats the number of boundaries below its first float.
+fn tables() -> &'static ([f32; 255], Vec<u8>) {
+    static TABLES: OnceLock<([f32; 255], Vec<u8>)> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let boundaries = boundaries();
+        let buckets = (0..=1.0f32.to_bits() >> BUCKET_SHIFT)
+            .map(|bucket| {
+                let first = f32::from_bits(bucket << BUCKET_SHIFT);
+                boundaries.partition_point(|&b| b <= first) as u8
+            })
+            .collect();
+        (boundaries, buckets)
+    })
 }
 
 /// The definition [`linear_to_srgb8`] reproduces.
@@ -31,23 +61,20 @@ fn encode_exact(c: f32) -> u8 {
 }
 
 /// `boundaries()[k - 1]` is the smallest `f32` in [0, 1] that encodes to code `k` or more.
-fn boundaries() -> &'static [f32; 255] {
-    static BOUNDARIES: OnceLock<[f32; 255]> = OnceLock::new();
-    BOUNDARIES.get_or_init(|| {
-        // Non-negative floats order like their bit patterns: bisect on the bits.
-        std::array::from_fn(|i| {
-            let code = i as u8 + 1;
-            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                if encode_exact(f32::from_bits(mid)) >= code {
-                    hi = mid;
-                } else {
-                    lo = mid + 1;
-                }
+fn boundaries() -> [f32; 255] {
+    // Non-negative floats order like their bit patterns: bisect on the bits.
+    std::array::from_fn(|i| {
+        let code = i as u8 + 1;
+        let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if encode_exact(f32::from_bits(mid)) >= code {
+                hi = mid;
+            } else {
+                lo = mid + 1;
             }
-            f32::from_bits(lo)
-        })
+        }
+        f32::from_bits(lo)
     })
 }
 
@@ -66,7 +93,7 @@ mod tests {
 
     #[test]
     fn the_table_gives_the_exact_bytes_on_every_boundary() {
-        let b = boundaries();
+        let b = &tables().0;
         for (i, &x) in b.iter().enumerate() {
             let code = i as u8 + 1;
             assert_eq!(linear_to_srgb8(x), encode_exact(x), "at the boundary of {code}");
