@@ -78,11 +78,11 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     let last_quad = x0 + (x1 - 1 - x0) / 2 * 2;
     let (col_lo, col_hi) = (x0.max(tile.x0) as i64, (last_quad + 1).min(tile.x1 - 1) as i64);
     // Per lane row (0, 1) and sample: the edges along rows y0 + r, y0 + r + 2, ...
+    let steps = EdgeSteps::new(t);
     let mut series = [[ColumnSeries::default(); 8]; 2];
-    for (r, row) in series.iter_mut().enumerate() {
-        for (s, &off) in offsets.iter().enumerate() {
-            row[s] = ColumnSeries::new(t, y0 + r as u32, off);
-        }
+    for (s, &off) in offsets.iter().enumerate() {
+        series[0][s] = ColumnSeries::new(t, &steps, y0, off);
+        series[1][s] = series[0][s].stepped(&steps, &steps.one_row);
     }
     // Per lane row and sample: the covered columns [lo, hi] (empty when lo > hi).
     let mut spans = [[(0i64, -1i64); 8]; 2];
@@ -95,10 +95,10 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
                 *span = if py >= tile.y1 || py < tile.y0 {
                     (0, -1)
                 } else {
-                    let (lo, hi) = columns.columns();
+                    let (lo, hi) = columns.columns(&steps);
                     (lo.max(col_lo), hi.min(col_hi))
                 };
-                columns.step();
+                *columns = columns.stepped(&steps, &steps.two_rows);
                 if span.0 <= span.1 {
                     row_lo = row_lo.min(span.0);
                     row_hi = row_hi.max(span.1);
@@ -127,88 +127,104 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     }
 }
 
+/// The three edges' divisors and row steps, shared by every [`ColumnSeries`] of a triangle:
+/// edge `i` accepts sample x where `d sx <= m` (`d = b1 - a1`; `m` linear in the row), so its
+/// bound is `floor(m / |d|)`, kept as quotient and remainder, and one sample row down `m`
+/// grows by a constant, and so does the pair, with one carry.
+struct EdgeSteps {
+    /// The sign of `d`: which bound the edge sets (0: none, or every column when `m < 0`).
+    side: [i64; 3],
+    /// `|d|` (1 where `d = 0`, so that the quotient is `m` itself).
+    divisor: [i64; 3],
+    /// The change of (quotient, remainder) one sample row down, and two rows down.
+    one_row: [(i64, i64); 3],
+    two_rows: [(i64, i64); 3],
+}
+
+impl EdgeSteps {
+    fn new(t: &SetupTriangle) -> EdgeSteps {
+        let mut steps = EdgeSteps {
+            side: [0; 3],
+            divisor: [1; 3],
+            one_row: [(0, 0); 3],
+            two_rows: [(0, 0); 3],
+        };
+        for (i, (a, b)) in t.edge_ends().into_iter().enumerate() {
+            let d = b[1] - a[1];
+            let divisor = d.abs().max(1);
+            let dm = (b[0] - a[0]) * SUBPIXEL;
+            let q = floor_div(dm, divisor);
+            steps.side[i] = d.signum();
+            steps.divisor[i] = divisor;
+            steps.one_row[i] = (q, dm - q * divisor);
+            steps.two_rows[i] = carry(2 * q, 2 * (dm - q * divisor), divisor);
+        }
+        steps
+    }
+}
+
+/// `(q, r)` with `r` brought back under `divisor` (it is below twice it).
+#[inline]
+fn carry(q: i64, r: i64, divisor: i64) -> (i64, i64) {
+    if r >= divisor {
+        (q + 1, r - divisor)
+    } else {
+        (q, r)
+    }
+}
+
 /// The pixel columns whose sample at one offset all three edges accept, along every other
-/// sample row. Edge `i` accepts sample x where `d sx <= m` (`d = b1 - a1`; `m` linear in the
-/// row), so its bound is `floor(m / |d|)`, kept as quotient and remainder: two rows down,
-/// `m` grows by a constant, and so does the pair, with one carry.
+/// sample row: per edge `m = q |d| + r` with `0 <= r < |d|` ([`EdgeSteps`]).
 #[derive(Clone, Copy, Default)]
 struct ColumnSeries {
-    edges: [EdgeSeries; 3],
+    q: [i64; 3],
+    r: [i64; 3],
     /// The sample's x offset in subpixels.
     ox: i64,
 }
 
-#[derive(Clone, Copy, Default)]
-struct EdgeSeries {
-    /// The sign of `d`: which bound the edge sets (0: none, or every column when `m < 0`).
-    side: i64,
-    /// `|d|`, and `m = q |d| + r` with `0 <= r < |d|` (for `d = 0`, `q = m`).
-    divisor: i64,
-    q: i64,
-    r: i64,
-    /// The change of `(q, r)` from one row of the series to the next.
-    step_q: i64,
-    step_r: i64,
-}
-
 impl ColumnSeries {
     /// The series starting at sample row `py`.
-    fn new(t: &SetupTriangle, py: u32, offset: [i64; 2]) -> ColumnSeries {
+    fn new(t: &SetupTriangle, steps: &EdgeSteps, py: u32, offset: [i64; 2]) -> ColumnSeries {
         let sy = py as i64 * SUBPIXEL + offset[1] * (SUBPIXEL / 16);
-        let mut edges = [EdgeSeries::default(); 3];
-        for (i, (a, b)) in [(t.v[1], t.v[2]), (t.v[2], t.v[0]), (t.v[0], t.v[1])]
-            .into_iter()
-            .enumerate()
-        {
+        let mut series = ColumnSeries {
+            ox: offset[0] * (SUBPIXEL / 16),
+            ..ColumnSeries::default()
+        };
+        for (i, (a, b)) in t.edge_ends().into_iter().enumerate() {
             // E(sx) = (b0 - a0)(sy - a1) - d (sx - a0) >= bias  <=>  d sx <= m.
             let d = b[1] - a[1];
             let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - t.bias[i];
-            let dm = (b[0] - a[0]) * 2 * SUBPIXEL;
-            let divisor = d.abs().max(1);
-            let (q, step_q) = (floor_div(m, divisor), floor_div(dm, divisor));
-            edges[i] = EdgeSeries {
-                side: d.signum(),
-                divisor,
-                q,
-                r: m - q * divisor,
-                step_q,
-                step_r: dm - step_q * divisor,
-            };
+            series.q[i] = floor_div(m, steps.divisor[i]);
+            series.r[i] = m - series.q[i] * steps.divisor[i];
         }
-        ColumnSeries {
-            edges,
-            ox: offset[0] * (SUBPIXEL / 16),
-        }
+        series
     }
 
     /// This row's covered columns `[lo, hi]`, empty when `lo > hi`.
     #[inline]
-    fn columns(&self) -> (i64, i64) {
+    fn columns(&self, steps: &EdgeSteps) -> (i64, i64) {
         let (mut lo, mut hi) = (i64::MIN, i64::MAX);
-        for e in &self.edges {
-            match e.side {
-                0 if e.q < 0 => return (0, -1),
+        for (&q, &side) in self.q.iter().zip(&steps.side) {
+            match side {
+                0 if q < 0 => return (0, -1),
                 0 => {}
                 // sx <= floor(m / d), sx = px SUBPIXEL + ox.
-                1 => hi = hi.min((e.q - self.ox) >> SUBPIXEL_BITS),
+                1 => hi = hi.min((q - self.ox) >> SUBPIXEL_BITS),
                 // sx >= ceil(m / d) = -floor(m / |d|).
-                _ => lo = lo.max(-((e.q + self.ox) >> SUBPIXEL_BITS)),
+                _ => lo = lo.max(-((q + self.ox) >> SUBPIXEL_BITS)),
             }
         }
         (lo, hi)
     }
 
-    /// Moves to the series' next row, two sample rows down.
+    /// The same series moved down by `by` (one of [`EdgeSteps`]' steps).
     #[inline]
-    fn step(&mut self) {
-        for e in &mut self.edges {
-            e.q += e.step_q;
-            e.r += e.step_r;
-            if e.r >= e.divisor {
-                e.r -= e.divisor;
-                e.q += 1;
-            }
+    fn stepped(mut self, steps: &EdgeSteps, by: &[(i64, i64); 3]) -> ColumnSeries {
+        for (i, &(q, r)) in by.iter().enumerate() {
+            (self.q[i], self.r[i]) = carry(self.q[i] + q, self.r[i] + r, steps.divisor[i]);
         }
+        self
     }
 }
 

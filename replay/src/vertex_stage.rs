@@ -49,12 +49,14 @@ impl SetupTriangle {
     /// Edge functions at a fixed-point sample position; `E_i` is opposite vertex `i`.
     #[inline]
     pub fn edges(&self, x: i64, y: i64) -> [i64; 3] {
-        let e = |a: [i64; 2], b: [i64; 2]| (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
-        [
-            e(self.v[1], self.v[2]),
-            e(self.v[2], self.v[0]),
-            e(self.v[0], self.v[1]),
-        ]
+        self.edge_ends()
+            .map(|(a, b)| (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]))
+    }
+
+    /// Edge `i`'s end points (from, to): the edge opposite vertex `i`.
+    #[inline]
+    pub fn edge_ends(&self) -> [([i64; 2], [i64; 2]); 3] {
+        [(self.v[1], self.v[2]), (self.v[2], self.v[0]), (self.v[0], self.v[1])]
     }
 
     #[inline]
