@@ -318,6 +318,38 @@ const MRU_SLOTS: u64 = 256;
 /// One command's accesses: a log and one of its segments.
 pub type LogSegment<'a> = (&'a AccessLog, usize);
 
+/// Every stream's accesses in replay order, as the segments' non-empty runs, and the texture
+/// reads the logs counted as hits. Gathered in one pass over the segments: replay order
+/// jumps between jobs' logs, so a segment's bounds are a cache miss, paid here once instead
+/// of once per stream and part.
+struct StreamRuns<'a> {
+    runs: [Vec<&'a [u32]>; STREAMS],
+    texture_hits: u64,
+}
+
+impl<'a> StreamRuns<'a> {
+    fn gather(segments: &[LogSegment<'a>]) -> StreamRuns<'a> {
+        let mut gathered = StreamRuns {
+            runs: std::array::from_fn(|_| Vec::new()),
+            texture_hits: 0,
+        };
+        for &(log, i) in segments {
+            gathered.texture_hits += log.texture_hits(i);
+            for (s, runs) in gathered.runs.iter_mut().enumerate() {
+                let run = log.stream(i, s);
+                if !run.is_empty() {
+                    runs.push(run);
+                }
+            }
+        }
+        gathered
+    }
+
+    fn of(&self, stream: Stream) -> &[&'a [u32]] {
+        &self.runs[stream as usize]
+    }
+}
+
 /// Cache sizes in bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CacheSizes {
@@ -538,14 +570,14 @@ impl Slots {
 }
 
 /// Replays the memoization cache (one part: its misses allocate slots in order).
-fn replay_memo(entries: u64, segments: &[LogSegment]) -> (MemoOutcome, Slots, CacheStats) {
+fn replay_memo(entries: u64, runs: &[&[u32]]) -> (MemoOutcome, Slots, CacheStats) {
     let ways = MEMO_WAYS as usize;
     let mut cache = Cache::shaped(SetShape::new((entries / MEMO_WAYS).max(1), ways), 0, 1);
     let mut outcome = MemoOutcome::default();
     let mut slots = Slots(Vec::new());
     let mut next = 0u32;
-    for &(log, i) in segments {
-        for &entry in log.stream(i, Stream::Memo as usize) {
+    for run in runs {
+        for &entry in *run {
             let key = u64::from(entry & LINE_MASK);
             if !cache.access(key, false).0 {
                 continue;
@@ -570,11 +602,11 @@ fn replay_memo(entries: u64, segments: &[LogSegment]) -> (MemoOutcome, Slots, Ca
 /// Replays the accesses of one frame, segment by segment in the given order, through
 /// fresh caches.
 pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
-    // Streams no log holds an entry of replay nothing: their caches are skipped (a whole
-    // log's length answers for all its segments at once).
-    let used: [bool; STREAMS] = std::array::from_fn(|s| segments.iter().any(|&(log, _)| !log.entries[s].is_empty()));
+    let runs = StreamRuns::gather(segments);
+    // Streams without an entry replay nothing: their caches are skipped.
+    let used: [bool; STREAMS] = std::array::from_fn(|s| !runs.runs[s].is_empty());
     let (memo, slots, memo_stats) = if used[Stream::Memo as usize] {
-        replay_memo(sizes.memo_entries, segments)
+        replay_memo(sizes.memo_entries, runs.of(Stream::Memo))
     } else {
         (MemoOutcome::default(), Slots(Vec::new()), CacheStats::default())
     };
@@ -614,14 +646,14 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
         // The stream's two previous entries, which a counted repeat repeats.
         let mut pair = [0u32; 2];
         // Hits counted rather than replayed: the repeats this part decides, and (in one
-        // part) the texture reads the log counted.
-        let mut counted_hits = 0u64;
+        // part) the texture reads the logs counted.
+        let mut counted_hits = if stream == Stream::Texture && part == 0 {
+            runs.texture_hits
+        } else {
+            0
+        };
         let mut held = [0u32; 256];
-        for &(log, i) in segments {
-            if stream == Stream::Texture && part == 0 {
-                counted_hits += log.texture_hits(i);
-            }
-            let entries = log.stream(i, stream as usize);
+        for &entries in runs.of(stream) {
             if stream == Stream::TriangleBuffer {
                 for &entry in entries {
                     let write = entry & WRITE_BIT != 0;
