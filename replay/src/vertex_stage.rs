@@ -83,6 +83,26 @@ impl SetupTriangle {
         let w = m.map(|x| (x / sum) as f32);
         self.bary[0] * w[0] + self.bary[1] * w[1] + self.bary[2] * w[2]
     }
+
+    /// [`Self::original_bary`] at four samples at once, component-major (`[x, y, z]`, each
+    /// per sample): the same operations sample by sample, so the same bits, laid out as
+    /// arrays of four so that they run as SIMD instructions (a quad's divisions are most of
+    /// its interpolation).
+    #[inline]
+    pub fn original_barys(&self, e: [[i64; 3]; 4]) -> [[f32; 4]; 3] {
+        let m: [[f64; 4]; 3] = std::array::from_fn(|i| e.map(|e| e[i] as f64 * self.inv_w[i] as f64));
+        let sum: [f64; 4] = std::array::from_fn(|l| {
+            let sum = m[0][l] + m[1][l] + m[2][l];
+            if sum.abs() < 1e-30 {
+                1e-30f64.copysign(sum)
+            } else {
+                sum
+            }
+        });
+        let w: [[f32; 4]; 3] = std::array::from_fn(|i| std::array::from_fn(|l| (m[i][l] / sum[l]) as f32));
+        let [b0, b1, b2] = self.bary.map(|b| b.to_array());
+        std::array::from_fn(|c| std::array::from_fn(|l| b0[c] * w[0][l] + b1[c] * w[1][l] + b2[c] * w[2][l]))
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -363,4 +383,44 @@ fn snap(
         bias,
         front_facing,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn triangle(inv_w: [f32; 3], bary: [[f32; 3]; 3]) -> SetupTriangle {
+        SetupTriangle {
+            prim: 0,
+            v: [[0, 0], [SUBPIXEL, 0], [0, SUBPIXEL]],
+            area2: SUBPIXEL * SUBPIXEL,
+            z: [0.5; 3],
+            inv_w,
+            bary: bary.map(Vec3::from_array),
+            bbox: [0, 0, 1, 1],
+            z_min: 0.5,
+            bias: [0; 3],
+            front_facing: true,
+        }
+    }
+
+    proptest! {
+        /// Four samples at once give each sample's own barycentrics, bit for bit, also where
+        /// the weights nearly cancel (the sum's clamp) and far outside the triangle.
+        #[test]
+        fn quad_barycentrics_are_the_samples_own(
+            inv_w in prop::array::uniform3(prop_oneof![1e-6f32..1e3, Just(1.0f32)]),
+            bary in prop::array::uniform3(prop::array::uniform3(-2.0f32..2.0)),
+            e in prop::array::uniform4(prop::array::uniform3(prop_oneof![-1i64 << 40..1i64 << 40, -2i64..2])),
+        ) {
+            let t = triangle(inv_w, bary);
+            let quad = t.original_barys(e);
+            for (l, &e) in e.iter().enumerate() {
+                let lane = t.original_bary(e);
+                let got = Vec3::new(quad[0][l], quad[1][l], quad[2][l]);
+                prop_assert_eq!(got.to_array().map(f32::to_bits), lane.to_array().map(f32::to_bits));
+            }
+        }
+    }
 }

@@ -82,7 +82,7 @@ impl SchemeJob for PerPixelJob {
         let material = ctx.triangle.material;
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
-            let lanes = [0u32, 1, 2, 3].map(|l| ctx.attributes(quad.x + (l & 1), quad.y + (l >> 1)));
+            let lanes = ctx.quad_attributes(quad.x, quad.y);
             let duv_dx = lanes[1].uv - lanes[0].uv;
             let duv_dy = lanes[2].uv - lanes[0].uv;
             let mut out = [Vec4::ZERO; 4];
