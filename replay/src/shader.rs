@@ -35,6 +35,47 @@ pub struct ShadingLight {
     /// Colour times intensity.
     pub radiance: Vec3,
     pub shadowed: bool,
+    /// A directional light's unit vector toward the light, a spot's unit axis (zero for a
+    /// point light): worked out once instead of at every point it lights (same bits).
+    axis: Vec3,
+    /// A spot's cosines of its inner and outer cone angles.
+    cone_cosines: (f32, f32),
+}
+
+impl ShadingLight {
+    pub fn new(kind: LightKind, radiance: Vec3, shadowed: bool) -> ShadingLight {
+        let (axis, cone_cosines) = match kind {
+            LightKind::Directional { direction } => (-direction.normalize_or(Vec3::NEG_Y), (0.0, 0.0)),
+            LightKind::Spot {
+                direction,
+                inner_cone,
+                outer_cone,
+                ..
+            } => (
+                direction.normalize_or(Vec3::NEG_Z),
+                (libm::cosf(inner_cone), libm::cosf(outer_cone)),
+            ),
+            LightKind::Point { .. } => (Vec3::ZERO, (0.0, 0.0)),
+        };
+        ShadingLight {
+            kind,
+            radiance,
+            shadowed,
+            axis,
+            cone_cosines,
+        }
+    }
+
+    /// The unit vector from `point` toward the light.
+    #[inline]
+    pub fn direction_from(&self, point: Vec3) -> Vec3 {
+        match self.kind {
+            LightKind::Directional { .. } => self.axis,
+            LightKind::Point { position, .. } | LightKind::Spot { position, .. } => {
+                (position - point).normalize_or(Vec3::Y)
+            }
+        }
+    }
 }
 
 /// Everything the shader reads besides the per-lane inputs.
@@ -259,8 +300,8 @@ impl ShaderEnv<'_> {
         } = *point;
         let light = &self.lights[k];
         match light.kind {
-            LightKind::Directional { direction } => {
-                let l = -direction.normalize_or(Vec3::NEG_Y);
+            LightKind::Directional { .. } => {
+                let l = light.axis;
                 let n_dot_l = n.dot(l);
                 let lit = n_dot_l > 0.0;
                 if effects.contains(Effects::DIFFUSE) {
@@ -311,14 +352,9 @@ impl ShaderEnv<'_> {
                 let n_dot_l = n.dot(l).max(0.0);
                 if effects.contains(Effects::DIFFUSE) {
                     let cone = match light.kind {
-                        LightKind::Spot {
-                            direction,
-                            inner_cone,
-                            outer_cone,
-                            ..
-                        } => {
-                            let cos = (-l).dot(direction.normalize_or(Vec3::NEG_Z));
-                            let (ci, co) = (libm::cosf(inner_cone), libm::cosf(outer_cone));
+                        LightKind::Spot { .. } => {
+                            let cos = (-l).dot(light.axis);
+                            let (ci, co) = light.cone_cosines;
                             ((cos - co) / (ci - co).max(1e-4)).clamp(0.0, 1.0)
                         }
                         _ => 1.0,

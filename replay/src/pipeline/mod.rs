@@ -86,11 +86,7 @@ impl PreparedScene {
         let lights = scene
             .lights
             .iter()
-            .map(|l| ShadingLight {
-                kind: l.kind,
-                radiance: l.color * l.intensity,
-                shadowed: l.shadowed,
-            })
+            .map(|l| ShadingLight::new(l.kind, l.color * l.intensity, l.shadowed))
             .collect();
         let double_sided = scene.materials.iter().map(|m| m.double_sided).collect();
         let static_casters = scene.geometry.meshes.iter().all(|m| m.motion == Motion::Static);

@@ -184,11 +184,7 @@ mod tests {
     use glam::Mat4;
 
     fn point(position: Vec3, range: Option<f32>) -> ShadingLight {
-        ShadingLight {
-            kind: LightKind::Point { position, range },
-            radiance: Vec3::ONE,
-            shadowed: false,
-        }
+        ShadingLight::new(LightKind::Point { position, range }, Vec3::ONE, false)
     }
 
     #[test]

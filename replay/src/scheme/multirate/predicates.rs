@@ -104,12 +104,7 @@ fn near_highlight(ctx: &UnitContext, t: Thresholds, positions: &[Vec3; 4], norma
     let cone = r.iter().map(|v| v.dot(r_avg)).fold(f32::INFINITY, f32::min);
     let center = (positions[0] + positions[1] + positions[2] + positions[3]) * 0.25;
     ctx.env.lights.iter().any(|light| {
-        let l = match light.kind {
-            LightKind::Directional { direction } => -direction.normalize_or(Vec3::NEG_Y),
-            LightKind::Point { position, .. } | LightKind::Spot { position, .. } => {
-                (position - center).normalize_or(Vec3::Y)
-            }
-        };
+        let l = light.direction_from(center);
         l.dot(r_avg) >= t.lambda * cone
     })
 }

@@ -4,7 +4,6 @@
 
 use glam::Vec3;
 
-use shadetrace_formats::LightKind;
 
 use super::block::CoarseBlock;
 use super::MultirateJob;
@@ -199,13 +198,7 @@ fn r_dot_l(ctx: &UnitContext, position: Vec3, normal: Vec3) -> Vec<f32> {
         .lights
         .iter()
         .map(|light| {
-            let l = match light.kind {
-                LightKind::Directional { direction } => -direction.normalize_or(Vec3::NEG_Y),
-                LightKind::Point { position: p, .. } | LightKind::Spot { position: p, .. } => {
-                    (p - position).normalize_or(Vec3::Y)
-                }
-            };
-            r.dot(l)
+            r.dot(light.direction_from(position))
         })
         .collect()
 }
