@@ -235,10 +235,28 @@ impl AccessLog {
             self.entries[s].push(REPEAT_BASE + step - 1);
             rest -= step;
         }
+        if rest > 0 && self.counts_pair(stream, a, b) {
+            // What the reads below would do: each one a counted hit, `b` the last access.
+            self.texture_hits += 2 * u64::from(rest);
+            self.last[s] = b as u32 & LINE_MASK;
+            return;
+        }
         for _ in 0..rest {
             self.touch(stream, a, false);
             self.touch(stream, b, false);
         }
+    }
+
+    /// Whether reading `a` and then `b` now counts both as hits: texture lines, distinct, in
+    /// different slots of the table, each its slot's most recent line in this command.
+    fn counts_pair(&self, stream: Stream, a: u64, b: u64) -> bool {
+        let (Stream::Texture, Some(mask)) = (stream, self.texture_slot_mask) else {
+            return false;
+        };
+        let (a, b) = (a as u32, b as u32);
+        let stamp = (self.segments.len() as u64) << 32;
+        let recent = |line: u32| self.texture_mru[(line & mask) as usize] == stamp | u64::from(line);
+        a != b && a & mask != b & mask && recent(a) && recent(b)
     }
 
     /// The segments that made accesses: (segment index, command index), in order. Only the
