@@ -4,7 +4,6 @@
 
 use glam::Vec3;
 
-
 use super::block::CoarseBlock;
 use super::MultirateJob;
 use crate::cost_table::Block;
@@ -197,8 +196,6 @@ fn r_dot_l(ctx: &UnitContext, position: Vec3, normal: Vec3) -> Vec<f32> {
     ctx.env
         .lights
         .iter()
-        .map(|light| {
-            r.dot(light.direction_from(position))
-        })
+        .map(|light| r.dot(light.direction_from(position)))
         .collect()
 }
