@@ -71,6 +71,15 @@ impl SetupTriangle {
         ((e[0] as f64 * self.z[0] as f64 + e[1] as f64 * self.z[1] as f64 + e[2] as f64 * self.z[2] as f64) / a) as f32
     }
 
+    /// [`Self::depth`] at four samples at once: the same operations sample by sample (so the
+    /// same bits), as arrays of four that compile to SIMD instructions.
+    #[inline]
+    pub fn depths(&self, e: [[i64; 3]; 4]) -> [f32; 4] {
+        let a = self.area2 as f64;
+        let z = self.z.map(f64::from);
+        e.map(|e| ((e[0] as f64 * z[0] + e[1] as f64 * z[1] + e[2] as f64 * z[2]) / a) as f32)
+    }
+
     /// Perspective-correct barycentrics in the original triangle at a sample (extrapolated
     /// outside the triangle, as helper lanes need).
     #[inline]
@@ -406,20 +415,22 @@ mod tests {
     }
 
     proptest! {
-        /// Four samples at once give each sample's own barycentrics, bit for bit, also where
-        /// the weights nearly cancel (the sum's clamp) and far outside the triangle.
+        /// Four samples at once give each sample's own barycentrics and depth, bit for bit,
+        /// also where the weights nearly cancel (the sum's clamp) and far outside the triangle.
         #[test]
-        fn quad_barycentrics_are_the_samples_own(
+        fn quad_barycentrics_and_depths_are_the_samples_own(
             inv_w in prop::array::uniform3(prop_oneof![1e-6f32..1e3, Just(1.0f32)]),
             bary in prop::array::uniform3(prop::array::uniform3(-2.0f32..2.0)),
             e in prop::array::uniform4(prop::array::uniform3(prop_oneof![-1i64 << 40..1i64 << 40, -2i64..2])),
         ) {
-            let t = triangle(inv_w, bary);
-            let quad = t.original_barys(e);
+            let mut t = triangle(inv_w, bary);
+            t.z = inv_w.map(|w| w.fract());
+            let (quad, depths) = (t.original_barys(e), t.depths(e));
             for (l, &e) in e.iter().enumerate() {
                 let lane = t.original_bary(e);
                 let got = Vec3::new(quad[0][l], quad[1][l], quad[2][l]);
                 prop_assert_eq!(got.to_array().map(f32::to_bits), lane.to_array().map(f32::to_bits));
+                prop_assert_eq!(depths[l].to_bits(), t.depth(e).to_bits());
             }
         }
     }

@@ -229,6 +229,17 @@ fn geometry_command(
         if !prepass {
             raster.quads_rasterized += 1;
         }
+        // Each covered sample's depth, four lanes at a time (pure: the tests and writes below
+        // keep their order).
+        let mut depths = [[0f32; 4]; 8];
+        for (s, &offset) in ctx.offsets.iter().enumerate() {
+            if q.coverage & sample_lanes(s, samples) != 0 {
+                depths[s] = setup.depths([0u32, 1, 2, 3].map(|l| {
+                    let (sx, sy) = sample_position(q.x + (l & 1), q.y + (l >> 1), offset);
+                    setup.edges(sx, sy)
+                }));
+            }
+        }
         let mut passed = 0u32;
         for lane in 0..4u32 {
             let lane_bits = q.coverage >> (lane as usize * samples) & ((1 << samples) - 1);
@@ -237,12 +248,11 @@ fn geometry_command(
             }
             let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
             let mut wrote = false;
-            for s in 0..samples {
+            for (s, depths) in depths[..samples].iter().enumerate() {
                 if lane_bits & (1 << s) == 0 {
                     continue;
                 }
-                let (sx, sy) = sample_position(x, y, ctx.offsets[s]);
-                let z = setup.depth(setup.edges(sx, sy));
+                let z = depths[lane as usize];
                 let i = buffer.index(x, y, s);
                 let pass_test = if ctx.z_prepass && !prepass && opaque {
                     z == buffer.depth[i] && setup.prim == buffer.prim[i]
@@ -344,6 +354,11 @@ fn shade_tile(
         offsets: ctx.offsets,
     };
     out.account(v, log, |acc| scheme_job.shade_tile(&tile_ctx, buffer, acc));
+}
+
+/// The coverage bits of sample `s` in the four lanes of a quad.
+fn sample_lanes(s: usize, samples: usize) -> u32 {
+    (0..4).fold(0, |mask, lane| mask | 1 << (lane * samples + s))
 }
 
 fn lane_mask(passed: u32, samples: usize) -> u8 {
