@@ -198,8 +198,10 @@ impl ShadowMap {
             return 1.0;
         }
         let size = self.size as f32;
-        let tx = ((p.x * 0.5 + 0.5) * size).floor() as i32;
-        let ty = ((0.5 - p.y * 0.5) * size).floor() as i32;
+        // Both are at least +0 (|p.x|, |p.y| <= 1), where truncation is the floor: no call to
+        // `floorf`, which SSE2 lacks.
+        let tx = ((p.x * 0.5 + 0.5) * size) as i32;
+        let ty = ((0.5 - p.y * 0.5) * size) as i32;
         // Slope-scaled bias: steeper receivers need more.
         let slope = (1.0 - n_dot_l * n_dot_l).max(0.0).sqrt() / n_dot_l.max(0.05);
         let bias = self.texel_depth * (1.5 + 2.0 * slope.min(10.0));
