@@ -340,17 +340,35 @@ pub type LogSegment<'a> = (&'a AccessLog, usize);
 /// reads the logs counted as hits. Gathered in one pass over the segments: replay order
 /// jumps between jobs' logs, so a segment's bounds are a cache miss, paid here once instead
 /// of once per stream and part.
+#[derive(Default)]
 struct StreamRuns<'a> {
     runs: [Vec<&'a [u32]>; STREAMS],
     texture_hits: u64,
 }
 
+/// Segments per parallel work item of [`StreamRuns::gather`] (fixed, so that nothing
+/// depends on the thread count).
+const GATHER_CHUNK: usize = 8192;
+
 impl<'a> StreamRuns<'a> {
+    /// Chunks of segments are gathered in parallel (their misses overlap) and joined in order.
     fn gather(segments: &[LogSegment<'a>]) -> StreamRuns<'a> {
-        let mut gathered = StreamRuns {
-            runs: std::array::from_fn(|_| Vec::new()),
-            texture_hits: 0,
-        };
+        let chunks: Vec<StreamRuns<'a>> = segments
+            .par_chunks(GATHER_CHUNK)
+            .map(StreamRuns::gather_serial)
+            .collect();
+        let mut gathered = StreamRuns::default();
+        for chunk in chunks {
+            gathered.texture_hits += chunk.texture_hits;
+            for (runs, chunk_runs) in gathered.runs.iter_mut().zip(chunk.runs) {
+                runs.extend(chunk_runs);
+            }
+        }
+        gathered
+    }
+
+    fn gather_serial(segments: &[LogSegment<'a>]) -> StreamRuns<'a> {
+        let mut gathered = StreamRuns::default();
         for &(log, i) in segments {
             gathered.texture_hits += log.texture_hits(i);
             for (s, runs) in gathered.runs.iter_mut().enumerate() {
