@@ -10,6 +10,7 @@ pub mod cost;
 pub mod cost_table;
 pub mod geometry;
 pub mod images;
+pub mod lanes;
 pub mod memory;
 pub mod options;
 pub mod pipeline;

@@ -21,6 +21,7 @@ use shadetrace_formats::{phong_from_metallic_roughness, LightKind, Material, Sur
 
 use crate::cost::{BlockSet, LightBlocks};
 use crate::cost_table::Block;
+use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
@@ -110,6 +111,14 @@ pub struct LightingInputs {
     pub surface: SurfacePoint,
 }
 
+/// A point's unit normal (mapped, and flipped to the side seen) and reflection vector:
+/// what every light's term at the point starts from.
+#[derive(Clone, Copy, Debug)]
+pub struct PointDirections {
+    n: Vec3,
+    r: Vec3,
+}
+
 /// What every light's term at one point shares: the inputs, the (possibly mapped and
 /// flipped) normal, the reflection vector and the Phong parameters there.
 #[derive(Clone, Copy)]
@@ -169,7 +178,43 @@ impl ShaderEnv<'_> {
     /// Coarse-able lighting (radiance reaching the eye per unit albedo): every effect
     /// evaluated here, combined.
     pub fn lighting(&self, inp: &LightingInputs, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec3 {
-        self.lighting_of(inp, None, blocks, log)
+        self.lighting_of(inp, None, None, blocks, log)
+    }
+
+    /// The directions at the four lanes of a quad (one triangle, so one material), computed
+    /// together: for [`Self::lighting_directed`]. None where the material has a normal map,
+    /// which the lanes sample one by one, in their order among their other reads.
+    pub fn quad_directions(
+        &self,
+        material: u32,
+        eye: Vec3,
+        positions: &[Vec3; 4],
+        normals: &[Vec3; 4],
+    ) -> Option<[PointDirections; 4]> {
+        if self.maps.of(material).normal.is_some() {
+            return None;
+        }
+        let double_sided = self.materials[material as usize].double_sided;
+        let v = (Vec3x4::splat(eye) - Vec3x4::from_lanes(positions)).normalize_or(Vec3x4::splat(Vec3::Z));
+        let n = Vec3x4::from_lanes(normals).normalize_or(Vec3x4::splat(Vec3::Y));
+        let n = n.negate_where_negative(n.dot(v), double_sided);
+        let twice = n.dot(v) * wide::f32x4::splat(2.0);
+        let r = (n.scale(twice) - v).normalize_or(n);
+        let (n, r) = (n.to_lanes(), r.to_lanes());
+        Some(std::array::from_fn(|l| PointDirections { n: n[l], r: r[l] }))
+    }
+
+    /// [`Self::lighting`] (of the lights in `list` when given, as
+    /// [`Self::lighting_listed`]) at a point, with its directions when its quad computed them.
+    pub fn lighting_directed(
+        &self,
+        inp: &LightingInputs,
+        directions: Option<&PointDirections>,
+        list: Option<&[u32]>,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Vec3 {
+        self.lighting_of(inp, directions, list, blocks, log)
     }
 
     /// [`ShaderEnv::lighting`] of the lights in `list` (indices, ascending) only: a culled
@@ -182,12 +227,13 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) -> Vec3 {
-        self.lighting_of(inp, Some(list), blocks, log)
+        self.lighting_of(inp, None, Some(list), blocks, log)
     }
 
     fn lighting_of(
         &self,
         inp: &LightingInputs,
+        directions: Option<&PointDirections>,
         list: Option<&[u32]>,
         blocks: &mut BlockSet,
         log: &mut AccessLog,
@@ -195,7 +241,7 @@ impl ShaderEnv<'_> {
         let mut terms = [LightTerm::default(); 8];
         if self.lights.len() <= terms.len() {
             let terms = &mut terms[..self.lights.len()];
-            self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
+            self.light_terms_of(inp, directions, Effects::all(), list, terms, blocks, log);
             self.combine(terms)
         } else {
             // Many lights: a per-thread buffer, cleared per call (no allocation per pixel).
@@ -205,7 +251,7 @@ impl ShaderEnv<'_> {
             TERMS.with_borrow_mut(|terms| {
                 terms.clear();
                 terms.resize(self.lights.len(), LightTerm::default());
-                self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
+                self.light_terms_of(inp, directions, Effects::all(), list, terms, blocks, log);
                 self.combine(terms)
             })
         }
@@ -221,14 +267,17 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) {
-        self.light_terms_of(inp, effects, None, terms, blocks, log)
+        self.light_terms_of(inp, None, effects, None, terms, blocks, log)
     }
 
     /// [`ShaderEnv::light_terms`] of the lights in `list` only (every light when None); the
-    /// terms of the others are left untouched.
+    /// terms of the others are left untouched. `directions`, when given, are the point's
+    /// own, computed with its quad's.
+    #[allow(clippy::too_many_arguments)]
     fn light_terms_of(
         &self,
         inp: &LightingInputs,
+        directions: Option<&PointDirections>,
         effects: Effects,
         list: Option<&[u32]>,
         terms: &mut [LightTerm],
@@ -238,19 +287,10 @@ impl ShaderEnv<'_> {
         blocks.take(Block::CoarseSetup);
         let material = &self.materials[inp.material as usize];
         let maps = self.maps.of(inp.material);
-        let v = (inp.eye - inp.position).normalize_or(Vec3::Z);
-        let mut n = inp.normal.normalize_or(Vec3::Y);
-        // The side is the interpolated normal's: a normal map bends the normal, it does not
-        // turn a front face into a back face.
-        let back = n.dot(v) < 0.0 && material.double_sided;
-        if let Some((texture, scale)) = maps.normal {
-            blocks.take(Block::NormalMap);
-            n = self.normal_mapped(n, &inp.surface, texture, scale, log);
-        }
-        if back {
-            n = -n;
-        }
-        let r = (2.0 * n.dot(v) * n - v).normalize_or(n);
+        let PointDirections { n, r } = match directions {
+            Some(&directions) => directions,
+            None => self.directions(inp, material.double_sided, blocks, log),
+        };
         let (exponent, strength) = match maps.metallic_roughness {
             None => (material.specular_exponent, material.specular_strength),
             Some((texture, roughness, metallic)) => {
@@ -371,6 +411,31 @@ impl ShaderEnv<'_> {
                 }
             }
         }
+    }
+
+    /// A point's directions ([`Self::quad_directions`] computes the same for four points
+    /// of a material without a normal map).
+    fn directions(
+        &self,
+        inp: &LightingInputs,
+        double_sided: bool,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> PointDirections {
+        let v = (inp.eye - inp.position).normalize_or(Vec3::Z);
+        let mut n = inp.normal.normalize_or(Vec3::Y);
+        // The side is the interpolated normal's: a normal map bends the normal, it does not
+        // turn a front face into a back face.
+        let back = n.dot(v) < 0.0 && double_sided;
+        if let Some((texture, scale)) = self.maps.of(inp.material).normal {
+            blocks.take(Block::NormalMap);
+            n = self.normal_mapped(n, &inp.surface, texture, scale, log);
+        }
+        if back {
+            n = -n;
+        }
+        let r = (2.0 * n.dot(v) * n - v).normalize_or(n);
+        PointDirections { n, r }
     }
 
     /// Ambient plus every light's term, always summed in light order (so that a scheme that

@@ -85,6 +85,14 @@ impl SchemeJob for PerPixelJob {
             let lanes = ctx.quad_attributes(quad.x, quad.y);
             let duv_dx = lanes[1].uv - lanes[0].uv;
             let duv_dy = lanes[2].uv - lanes[0].uv;
+            let positions = lanes.map(|lane| lane.position);
+            let directions = ctx
+                .env
+                .quad_directions(material, ctx.eye, &positions, &lanes.map(|lane| lane.normal));
+            let list = self.lists.as_ref().map(|tiles| {
+                let key = (ctx.view, quad.x / TILED_TILE, quad.y / TILED_TILE);
+                tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
+            });
             let mut out = [Vec4::ZERO; 4];
             for (l, lane) in lanes.iter().enumerate() {
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
@@ -97,14 +105,10 @@ impl SchemeJob for PerPixelJob {
                     material,
                     surface: at,
                 };
-                let lighting = match &self.lists {
-                    None => ctx.env.lighting(&inputs, &mut self.blocks, acc.log),
-                    Some(tiles) => {
-                        let key = (ctx.view, quad.x / TILED_TILE, quad.y / TILED_TILE);
-                        let list = tiles.lists.get(&key).map_or(&[][..], Vec::as_slice);
-                        ctx.env.lighting_listed(&inputs, list, &mut self.blocks, acc.log)
-                    }
-                };
+                let directions = directions.as_ref().map(|d| &d[l]);
+                let lighting = ctx
+                    .env
+                    .lighting_directed(&inputs, directions, list, &mut self.blocks, acc.log);
                 let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
                 out[l] = compose(&surface, lighting, &mut self.blocks);
                 let useful = quad.lanes & (1 << l) != 0;
