@@ -178,7 +178,7 @@ impl ShaderEnv<'_> {
     /// Coarse-able lighting (radiance reaching the eye per unit albedo): every effect
     /// evaluated here, combined.
     pub fn lighting(&self, inp: &LightingInputs, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec3 {
-        self.lighting_of(inp, None, None, blocks, log)
+        self.lighting_directed(inp, None, None, blocks, log)
     }
 
     /// The directions at the four lanes of a quad (one triangle, so one material), computed
@@ -204,19 +204,6 @@ impl ShaderEnv<'_> {
         Some(std::array::from_fn(|l| PointDirections { n: n[l], r: r[l] }))
     }
 
-    /// [`Self::lighting`] (of the lights in `list` when given, as
-    /// [`Self::lighting_listed`]) at a point, with its directions when its quad computed them.
-    pub fn lighting_directed(
-        &self,
-        inp: &LightingInputs,
-        directions: Option<&PointDirections>,
-        list: Option<&[u32]>,
-        blocks: &mut BlockSet,
-        log: &mut AccessLog,
-    ) -> Vec3 {
-        self.lighting_of(inp, directions, list, blocks, log)
-    }
-
     /// [`ShaderEnv::lighting`] of the lights in `list` (indices, ascending) only: a culled
     /// light list. Lights left out contribute nothing, so a list holding every light that
     /// reaches the point gives the same bits as the full loop.
@@ -227,10 +214,12 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) -> Vec3 {
-        self.lighting_of(inp, None, Some(list), blocks, log)
+        self.lighting_directed(inp, None, Some(list), blocks, log)
     }
 
-    fn lighting_of(
+    /// [`Self::lighting`] (of the lights in `list` when given, as
+    /// [`Self::lighting_listed`]) at a point, with its directions when its quad computed them.
+    pub fn lighting_directed(
         &self,
         inp: &LightingInputs,
         directions: Option<&PointDirections>,
