@@ -40,7 +40,7 @@ pub use job::VERTEX_BYTES;
 use job::{run_job, JobContext, JobOutput};
 pub use resolve::clear_pixel;
 pub use sample_buffer::{depth_passes, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
-use stage_clock::StageClock;
+use stage_clock::{timed, StageClock};
 pub use view_pass::WORK_CHUNK;
 
 /// Scene data prepared once per trace: mip chains and lights.
@@ -248,20 +248,6 @@ pub fn run_frame(
         memo_entries: opts.memo_entries,
     };
     let passes = made.as_ref().map(|(_, made)| made.outputs.as_slice());
-    let Replayed {
-        mut traffic,
-        caches,
-        memo,
-    } = memory_pass(sizes, scheduler, &jobs, &outputs, passes);
-    // Bytes the jobs moved past the caches (light lists), in job order.
-    for out in &outputs {
-        traffic.add(&out.traffic);
-    }
-    traffic.add_bytes(INDICES, schedule.lists.index_bytes);
-    if scheduler.stores_vertex_output() {
-        traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
-    }
-    clock.lap("memory");
     let [left, right] = views;
     // The two views assemble independently, at once.
     let assemble_view = |v: usize, setup: ViewSetup| match &made {
@@ -279,9 +265,27 @@ pub fn run_frame(
         }
         _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
     };
-    let (left, right) = rayon::join(|| assemble_view(0, left), || assemble_view(1, right));
-    let mut views = [left, right];
-    clock.lap("assemble");
+    // The memory replay and the views' assembly only read the jobs' outputs: they run at once
+    // (the replay's parts leave a thread idle that the assembly takes).
+    let ((replayed, memory_time), (views, assemble_time)) = rayon::join(
+        || timed(|| memory_pass(sizes, scheduler, &jobs, &outputs, passes)),
+        || timed(|| rayon::join(|| assemble_view(0, left), || assemble_view(1, right))),
+    );
+    clock.overlapped(&[("memory", memory_time), ("assemble", assemble_time)]);
+    let Replayed {
+        mut traffic,
+        caches,
+        memo,
+    } = replayed;
+    // Bytes the jobs moved past the caches (light lists), in job order.
+    for out in &outputs {
+        traffic.add(&out.traffic);
+    }
+    traffic.add_bytes(INDICES, schedule.lists.index_bytes);
+    if scheduler.stores_vertex_output() {
+        traffic.add_bytes(TRIANGLE_DATA, geometry.positions.len() as u64 * VERTEX_BYTES);
+    }
+    let mut views = [views.0, views.1];
     let mut counters = Counters::new();
     let pass_outputs = made.iter().flat_map(|(_, made)| &made.outputs);
     for (name, n) in outputs.iter().chain(pass_outputs).flat_map(|out| &out.counters) {

@@ -23,4 +23,18 @@ impl StageClock {
         self.laps.push((name, now - self.last));
         self.last = now;
     }
+
+    /// Ends stages that ran at once, each with its own wall time (so their laps add up to
+    /// more than the time that passed), and starts the next one.
+    pub fn overlapped(&mut self, stages: &[(&'static str, Duration)]) {
+        self.laps.extend_from_slice(stages);
+        self.last = Instant::now();
+    }
+}
+
+/// `f`'s result and its wall time.
+pub fn timed<R>(f: impl FnOnce() -> R) -> (R, Duration) {
+    let start = Instant::now();
+    let result = f();
+    (result, start.elapsed())
 }
