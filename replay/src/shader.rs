@@ -553,3 +553,60 @@ fn finite_or_zero(x: f32) -> f32 {
         0.0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use shadetrace_formats::AlphaMode;
+
+    fn vec3() -> impl Strategy<Value = Vec3> {
+        let c = || prop_oneof![-10.0f32..10.0, Just(0.0f32), -1e-20f32..1e-20];
+        (c(), c(), c()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        /// A quad's directions are each lane's own, bit for bit: the two are written apart
+        /// (four lanes in registers, one lane in glam) and must not drift.
+        #[test]
+        fn quad_directions_are_each_lanes_own(
+            eye in vec3(),
+            positions in prop::array::uniform4(vec3()),
+            normals in prop::array::uniform4(vec3()),
+            double_sided in any::<bool>(),
+        ) {
+            let material = Material {
+                name: String::new(),
+                base_color: [1.0; 4],
+                base_color_texture: None,
+                specular_exponent: 16.0,
+                specular_strength: 0.5,
+                alpha: AlphaMode::Opaque,
+                double_sided,
+            };
+            let maps = SurfaceMaps::default();
+            let env = ShaderEnv {
+                materials: std::slice::from_ref(&material),
+                textures: &[],
+                lights: &[],
+                shadow: None,
+                receivers: None,
+                maps: &maps,
+            };
+            let quad = env.quad_directions(0, eye, &positions, &normals).unwrap();
+            for l in 0..4 {
+                let inputs = LightingInputs {
+                    position: positions[l],
+                    normal: normals[l],
+                    eye,
+                    material: 0,
+                    surface: SurfacePoint::default(),
+                };
+                let lane = env.directions(&inputs, double_sided, &mut BlockSet::new(0), &mut AccessLog::new());
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                prop_assert_eq!(bits(quad[l].n), bits(lane.n));
+                prop_assert_eq!(bits(quad[l].r), bits(lane.r));
+            }
+        }
+    }
+}

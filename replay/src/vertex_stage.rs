@@ -75,9 +75,7 @@ impl SetupTriangle {
     /// same bits), as arrays of four that compile to SIMD instructions.
     #[inline]
     pub fn depths(&self, e: [[i64; 3]; 4]) -> [f32; 4] {
-        let a = self.area2 as f64;
-        let z = self.z.map(f64::from);
-        e.map(|e| ((e[0] as f64 * z[0] + e[1] as f64 * z[1] + e[2] as f64 * z[2]) / a) as f32)
+        e.map(|e| self.depth(e))
     }
 
     /// Perspective-correct barycentrics in the original triangle at a sample (extrapolated
