@@ -100,5 +100,5 @@ fn stereo_frame(bencher: Bencher, Threaded(case, threads): Threaded) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     bencher
         .counter(ItemsCount::new(2 * 1280 * 1440usize))
-        .bench(|| pool.install(|| replay_all(trace, &runs, None, &mut |_, _| Ok(()), &mut |_| {}).unwrap()));
+        .bench(|| pool.install(|| replay_all(trace, &runs, None, None, &mut |_| {}).unwrap()));
 }

@@ -1,6 +1,7 @@
 //! Replay through the command line: golden numbers, determinism across thread counts,
-//! scheduling that changes cost and traffic but never pixels, the Table 1 list-memory trend,
-//! and the extremes (1x1 and empty views).
+//! numbers that do not depend on pictures being written, scheduling that changes cost and
+//! traffic but never pixels, the Table 1 list-memory trend, and the extremes (1x1 and empty
+//! views).
 
 mod common;
 
@@ -51,6 +52,28 @@ fn identical_results_and_images_at_any_thread_count() {
             let b = std::fs::read(dir2.join(file)).unwrap();
             assert!(a == b, "{name}/{preset}: {file} differs between thread counts");
         }
+    }
+}
+
+/// A replay that writes no pictures skips their cost heat maps and keeps no images: every
+/// number is the same (a multi-rate scheme that reports refinement, a stereo scheduler, a
+/// view pass).
+#[test]
+fn replays_without_pictures_count_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, preset) in [
+        ("depth-stack", "he-dynamic"),
+        ("spheres", "tile-pair"),
+        ("arena", "repro-reraster"),
+    ] {
+        let (with, _) = replay(name, preset, &["--res", "160x180"], None, dir.path());
+        let (without, out) = replay(name, preset, &["--res", "160x180", "--no-images"], None, dir.path());
+        assert_eq!(with, without, "{name}/{preset}: --no-images changed the results");
+        let pictures = std::fs::read_dir(&out)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "png"))
+            .count();
+        assert_eq!(pictures, 0, "{name}/{preset}: --no-images wrote pictures");
     }
 }
 

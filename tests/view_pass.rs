@@ -10,7 +10,9 @@ use glam::Vec4;
 use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_replay::cost::{BlockSet, SimdPacker};
 use shadetrace_replay::cost_table::Block;
-use shadetrace_replay::pipeline::{run_frame, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE};
+use shadetrace_replay::pipeline::{
+    run_frame, CostHeat, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE,
+};
 use shadetrace_replay::schedule::Immediate;
 use shadetrace_replay::scheme::{
     Accounting, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, UnitContext, ViewContext, ViewPass, WorkListState,
@@ -127,6 +129,7 @@ fn frame(threads: usize, scheme: &dyn ShadingScheme) -> FrameOutput {
             &opts,
             &Immediate,
             scheme,
+            CostHeat::Kept,
         )
     })
 }

@@ -16,7 +16,7 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
-use crate::pipeline::{clear_pixel, run_frame, FrameOutput, PreparedScene};
+use crate::pipeline::{clear_pixel, run_frame, CostHeat, FrameOutput, PreparedScene};
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
 use crate::schedule::Scheduler;
@@ -75,7 +75,8 @@ pub struct FrameImages {
 }
 
 /// Results of one replay, and the images of its first frame (reports show that one; every
-/// frame's images go to the sink as they are made, so memory stays flat in frames).
+/// frame's images go to the sink as they are made, so memory stays flat in frames). A
+/// replay without a sink makes no images to keep.
 pub struct RunOutput {
     pub result: RunResult,
     pub first_images: Option<FrameImages>,
@@ -106,14 +107,20 @@ impl ReplayStep<'_> {
 /// quality are measured per frame while only one frame's images are alive. A run of the
 /// reference preset itself, under the reference's options, is a copy of the reference run (one
 /// replay, not two).
+/// Without a `sink` no picture is wanted: the frames skip their cost heat maps (which only
+/// pictures show) and keep no images; every number is the same.
 /// `progress` hears after every run of every frame.
 pub fn replay_all(
     trace: &LoadedTrace,
     runs: &[(Preset, ReplayOptions)],
     reference: Option<&ReplayOptions>,
-    sink: &mut ImageSink,
+    mut sink: Option<&mut ImageSink>,
     progress: &mut dyn FnMut(ReplayStep),
 ) -> Result<Vec<RunOutput>, String> {
+    let heat = match sink {
+        Some(_) => CostHeat::Kept,
+        None => CostHeat::Skipped,
+    };
     let mut replays = runs
         .iter()
         .map(|(preset, opts)| Replay::new(trace, preset, opts))
@@ -151,7 +158,7 @@ pub fn replay_all(
         let mut mirrored = None;
         let reference_frame = match reference.as_mut() {
             Some(r) => {
-                let (out, took) = r.render(trace, index);
+                let (out, took) = r.render(trace, index, heat);
                 if mirrors.contains(&true) {
                     mirrored = Some((out.clone(), took));
                 }
@@ -176,12 +183,14 @@ pub fn replay_all(
         for (i, replay) in replays.iter_mut().enumerate() {
             let images = match mirrored.take_if(|_| mirrors[i]) {
                 Some((out, took)) => replay.record(out, took, index, reference_frame.as_ref())?,
-                None => replay.frame(trace, index, reference_frame.as_ref())?,
+                None => replay.frame(trace, index, reference_frame.as_ref(), heat)?,
             };
-            let writing = Instant::now();
-            sink(i, &images)?;
-            *replay.stages.entry("images").or_default() += writing.elapsed();
-            replay.first_images.get_or_insert(images);
+            if let Some(sink) = sink.as_mut() {
+                let writing = Instant::now();
+                sink(i, &images)?;
+                *replay.stages.entry("images").or_default() += writing.elapsed();
+                replay.first_images.get_or_insert(images);
+            }
             progress(ReplayStep {
                 frames_done: done as u32,
                 runs_done: i + 1,
@@ -258,13 +267,14 @@ impl Replay {
         trace: &LoadedTrace,
         index: u32,
         reference: Option<&ReferenceFrame>,
+        heat: CostHeat,
     ) -> Result<FrameImages, String> {
-        let (out, took) = self.render(trace, index);
+        let (out, took) = self.render(trace, index, heat);
         self.record(out, took, index, reference)
     }
 
     /// Replays frame `index`; also returns how long that took.
-    fn render(&self, trace: &LoadedTrace, index: u32) -> (FrameOutput, Duration) {
+    fn render(&self, trace: &LoadedTrace, index: u32, heat: CostHeat) -> (FrameOutput, Duration) {
         let started = Instant::now();
         let out = run_frame(
             &trace.prepared,
@@ -273,6 +283,7 @@ impl Replay {
             &self.opts,
             self.scheduler.as_ref(),
             self.scheme.as_ref(),
+            heat,
         );
         (out, started.elapsed())
     }

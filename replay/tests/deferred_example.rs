@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec4;
 use shadetrace_replay::cost::{BlockSet, SimdPacker, FINE};
-use shadetrace_replay::pipeline::{run_frame, SampleBuffer, NO_PRIMITIVE};
+use shadetrace_replay::pipeline::{run_frame, CostHeat, SampleBuffer, NO_PRIMITIVE};
 use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
     Accounting, Passes, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext,
@@ -114,9 +114,25 @@ fn deferred_example_equals_forward_bit_for_bit() {
         };
         let schedulers: [&dyn Scheduler; 3] = [&Immediate, &SortMiddle, &TilePair { disparity_order: true }];
         let frame = &trace.frames[0];
-        let forward = run_frame(&trace.prepared, &trace.meta, frame, &opts, &Immediate, &PerPixel);
+        let forward = run_frame(
+            &trace.prepared,
+            &trace.meta,
+            frame,
+            &opts,
+            &Immediate,
+            &PerPixel,
+            CostHeat::Kept,
+        );
         for scheduler in schedulers {
-            let deferred = run_frame(&trace.prepared, &trace.meta, frame, &opts, scheduler, &DeferredPerPixel);
+            let deferred = run_frame(
+                &trace.prepared,
+                &trace.meta,
+                frame,
+                &opts,
+                scheduler,
+                &DeferredPerPixel,
+                CostHeat::Kept,
+            );
             for v in 0..2 {
                 assert!(
                     forward.views[v].pixels == deferred.views[v].pixels,
@@ -159,6 +175,7 @@ fn pixels_covered_counts_the_pixels_that_are_not_clear() {
             &opts,
             &Immediate,
             &PerPixel,
+            CostHeat::Kept,
         );
         for view in &out.views {
             let not_clear = view.pixels.iter().filter(|p| p[..3] != clear).count() as u64;

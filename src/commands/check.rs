@@ -81,7 +81,7 @@ pub fn run(args: Args) -> Result<(), String> {
                 Err(why) => println!("skip {}/{}: {why}", entry.name, preset.label()),
             }
         }
-        let runs = replay_all(&trace, &runnable, Some(&opts), &mut |_, _| Ok(()), &mut |_| {})?;
+        let runs = replay_all(&trace, &runnable, Some(&opts), None, &mut |_| {})?;
         for (run, (preset, _)) in runs.iter().zip(&runnable) {
             let mut result = serde_json::to_value(&run.result).map_err(|e| e.to_string())?;
             // Wall-clock timing is not a golden number.

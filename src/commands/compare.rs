@@ -115,11 +115,11 @@ pub fn run_presets(
         trace,
         &runnable,
         Some(opts),
-        &mut |i, pictures| match images {
+        Some(&mut |i, pictures| match images {
             ImageFrames::All => write_frame_images(&dirs[i].0, pictures, dirs[i].1),
             ImageFrames::First if pictures.frame == first => write_frame_images(&dirs[i].0, pictures, dirs[i].1),
             _ => Ok(()),
-        },
+        }),
         &mut |step| bar.replay_step(step, frames),
     )?;
     bar.finish_and_clear();

@@ -51,14 +51,12 @@ pub fn run(args: Args) -> Result<(), String> {
     let refinement = preset.scheme_info().reports_refinement;
     let bar = progress::replay_bar(frames, 1, "replay", args.quiet);
     let started = std::time::Instant::now();
+    let mut write_images = |_, images: &FrameImages| write_frame_images(&args.out, images, refinement);
     let mut runs = replay_all(
         &trace,
         &[(preset, opts.clone())],
         (!args.no_reference).then_some(&opts),
-        &mut |_, images| match args.no_images {
-            true => Ok(()),
-            false => write_frame_images(&args.out, images, refinement),
-        },
+        (!args.no_images).then_some(&mut write_images),
         &mut |step| bar.replay_step(step, frames),
     )?;
     bar.finish_and_clear();

@@ -130,7 +130,7 @@ pub fn run(args: Args) -> Result<(), String> {
         let frames = frames_of(group);
         let what = format!("group {}/{} ({}, {})", n + 1, todo.len(), trace.name, point.label);
         let group_started = Instant::now();
-        let outputs = replay_all(trace, &runs, Some(&point.options), &mut |_, _| Ok(()), &mut |step| {
+        let outputs = replay_all(trace, &runs, Some(&point.options), None, &mut |step| {
             bar.set_position_with(units_done + step.units_done(), &what)
         })?;
         let wall_s = group_started.elapsed().as_secs_f64() / outputs.len().max(1) as f64;

@@ -5,7 +5,7 @@ use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost, V
 
 use super::job::JobOutput;
 use super::resolve::clear_pixel;
-use super::ViewOutput;
+use super::{CostHeat, ViewOutput};
 use crate::bins::TileGrid;
 
 /// Heat and refinement maps key pixels as `view << 30 | y * width + x`.
@@ -15,12 +15,15 @@ pub fn view<'a>(
     v: usize,
     vertex: VertexStats,
     grid: TileGrid,
-    simd_width: u32,
+    (simd_width, heat): (u32, CostHeat),
     outputs: impl IntoIterator<Item = &'a JobOutput>,
 ) -> ViewOutput {
     let (width, height) = (grid.width, grid.height);
     let mut pixels = vec![clear_pixel(); (width * height) as usize];
-    let mut cost_heat = vec![0u32; (width * height) as usize];
+    let mut cost_heat = match heat {
+        CostHeat::Kept => vec![0u32; (width * height) as usize],
+        CostHeat::Skipped => Vec::new(),
+    };
     let mut refinement = vec![0u8; (width * height) as usize];
     let mut cache = ShadingCacheStats::default();
     let mut raster = RasterStats::default();
@@ -41,7 +44,7 @@ pub fn view<'a>(
                     .copy_from_slice(&tile.pixels[row * tile_width..(row + 1) * tile_width]);
             }
         }
-        for &(pixel, n) in out.heat.iter().filter(|(p, _)| in_view(*p)) {
+        for &(pixel, n) in out.heat.iter().flatten().filter(|(p, _)| in_view(*p)) {
             let sum = &mut cost_heat[index(pixel)];
             *sum = sum.wrapping_add(n);
         }

@@ -10,6 +10,7 @@ use shadetrace_formats::AlphaMode;
 use super::blend::{merge, MergeInput};
 use super::resolve::{resolve, TileImage};
 use super::sample_buffer::{depth_passes, SampleBuffer};
+use super::CostHeat;
 use crate::bins::TileGrid;
 use crate::command::{Command, Job, Unit};
 use crate::geometry::FrameGeometry;
@@ -43,6 +44,7 @@ pub struct JobContext<'a> {
     pub z_prepass: bool,
     /// Keep tile buffers after the resolve (a view pass reads them).
     pub keep_buffers: bool,
+    pub heat: CostHeat,
 }
 
 /// Everything a job produced; per-view arrays are indexed by view.
@@ -52,10 +54,11 @@ pub struct JobOutput {
     pub raster: [RasterStats; 2],
     pub cost: [ShadingCost; 2],
     pub tiles: Vec<TileImage>,
-    /// Instructions per pixel id and refinement bits per pixel id, in the order the job
-    /// produced them (repeats of the last pixel folded in); the view's assembly adds them
-    /// up, which is order-independent (wrapping sums, bitwise or).
-    pub heat: Vec<(u32, u32)>,
+    /// Instructions per pixel id (None: the frame skips its heat maps) and refinement bits
+    /// per pixel id, in the order the job produced them (repeats of the last pixel folded
+    /// in); the view's assembly adds them up, which is order-independent (wrapping sums,
+    /// bitwise or).
+    pub heat: Option<Vec<(u32, u32)>>,
     pub refinement: Vec<(u32, u8)>,
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
@@ -89,13 +92,13 @@ impl JobContext<'_> {
 }
 
 impl JobOutput {
-    pub fn new(simd_width: u32) -> JobOutput {
+    pub fn new(simd_width: u32, heat: CostHeat) -> JobOutput {
         JobOutput {
             log: AccessLog::new(),
             raster: [RasterStats::default(); 2],
             cost: [ShadingCost::new(simd_width), ShadingCost::new(simd_width)],
             tiles: Vec::new(),
-            heat: Vec::new(),
+            heat: (heat == CostHeat::Kept).then(Vec::new),
             refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
@@ -114,9 +117,13 @@ impl JobOutput {
         f(&mut Accounting {
             cost: &mut self.cost[v],
             log,
-            heat: &mut |pixel, n| match heat.last_mut() {
-                Some((last, sum)) if *last == pixel => *sum = sum.wrapping_add(n),
-                _ => heat.push((pixel, n)),
+            heat: &mut |pixel, n| {
+                if let Some(heat) = heat {
+                    match heat.last_mut() {
+                        Some((last, sum)) if *last == pixel => *sum = sum.wrapping_add(n),
+                        _ => heat.push((pixel, n)),
+                    }
+                }
             },
             refinement: &mut |pixel, bits| match refinement.last_mut() {
                 Some((last, all)) if *last == pixel => *all |= bits,
@@ -140,7 +147,7 @@ struct Scratch {
 pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
     let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
-    let mut out = JobOutput::new(ctx.simd_width);
+    let mut out = JobOutput::new(ctx.simd_width, ctx.heat);
     let mut scratch = Scratch::default();
     let mut log = AccessLog::with_texture_cache(ctx.texture_cache_bytes);
     // Tiles whose pre-passed depth the scheme has seen.

@@ -131,7 +131,8 @@ pub struct ViewOutput {
     pub height: u32,
     /// sRGB pixels, row-major.
     pub pixels: Vec<[u8; 4]>,
-    /// Issued instructions per pixel (every SIMD group adds its count to each of its lanes).
+    /// Issued instructions per pixel (every SIMD group adds its count to each of its lanes);
+    /// empty when the frame skipped it ([`CostHeat::Skipped`]).
     pub cost_heat: Vec<u32>,
     /// Per pixel, the union of `Effects` bits over its fragments (multi-rate schemes).
     pub refinement: Vec<u8>,
@@ -144,7 +145,17 @@ pub struct ViewSetup {
     pub stats: VertexStats,
 }
 
-/// Runs one frame through `scheduler` x `scheme`.
+/// Whether a frame keeps its per-pixel cost heat map. Only pictures show it, so a run that
+/// writes none skips it: its per-lane bookkeeping and its lists (tens of MB at 1280x1440
+/// per eye). No counter depends on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CostHeat {
+    Kept,
+    Skipped,
+}
+
+/// Runs one frame through `scheduler` x `scheme`; `heat` says whether the views keep their
+/// cost heat maps.
 pub fn run_frame(
     prepared: &PreparedScene,
     meta: &Meta,
@@ -152,6 +163,7 @@ pub fn run_frame(
     opts: &ReplayOptions,
     scheduler: &dyn Scheduler,
     scheme: &dyn ShadingScheme,
+    heat: CostHeat,
 ) -> FrameOutput {
     let (width, height) = opts.resolution.unwrap_or((frame.rig.eye_width, frame.rig.eye_height));
     let mut rig = frame.rig;
@@ -219,11 +231,12 @@ pub fn run_frame(
         texture_cache_bytes: opts.texture_cache_kb as u64 * 1024,
         z_prepass,
         keep_buffers: declared.is_some(),
+        heat,
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
     clock.lap("raster_shade");
     let made = declared.map(|pass| {
-        let budget = (prepared.lights.len(), opts.simd_width);
+        let budget = (prepared.lights.len(), opts.simd_width, heat);
         (
             pass,
             view_pass::run(pass, scheme, ctx.view(pass.to), ctx.offsets.len(), budget, &outputs),
@@ -256,14 +269,14 @@ pub fn run_frame(
                 v,
                 setup.stats,
                 grid,
-                opts.simd_width,
+                (opts.simd_width, heat),
                 outputs.iter().chain(&made.outputs),
             );
             let image = resolve::resolve(&made.frame);
             (view.pixels, view.raster.pixels_covered) = (image.pixels, image.covered);
             view
         }
-        _ => assemble::view(v, setup.stats, grid, opts.simd_width, &outputs),
+        _ => assemble::view(v, setup.stats, grid, (opts.simd_width, heat), &outputs),
     };
     // The memory replay and the views' assembly only read the jobs' outputs: they run at once
     // (the replay's parts leave a thread idle that the assembly takes).

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::job::JobOutput;
 use super::sample_buffer::SampleBuffer;
+use super::CostHeat;
 use crate::raster::Rect;
 use crate::scheme::{ShadingScheme, ViewContext, ViewPass};
 
@@ -59,7 +60,7 @@ pub fn run(
     scheme: &dyn ShadingScheme,
     ctx: ViewContext,
     samples: usize,
-    (lights, simd_width): (usize, u32),
+    (lights, simd_width, heat): (usize, u32, CostHeat),
     jobs: &[JobOutput],
 ) -> ViewPassOutput {
     let (width, height) = (ctx.width, ctx.height);
@@ -84,7 +85,7 @@ pub fn run(
         SampleBuffer::new(pass.to, from.rect, samples)
     };
     let mut work = Vec::new();
-    let mut first = JobOutput::new(simd_width);
+    let mut first = JobOutput::new(simd_width, heat);
     let mut log = crate::memory::AccessLog::new();
     let v = pass.to as usize;
     let shared = first.account(v, &mut log, |acc| {
@@ -96,7 +97,7 @@ pub fn run(
     let chunks: Vec<(JobOutput, Vec<Vec4>)> = work
         .par_chunks(WORK_CHUNK)
         .map(|pixels| {
-            let mut out = JobOutput::new(simd_width);
+            let mut out = JobOutput::new(simd_width, heat);
             let mut log = crate::memory::AccessLog::new();
             let mut colors = Vec::with_capacity(pixels.len());
             out.account(v, &mut log, |acc| {
