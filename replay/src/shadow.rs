@@ -81,15 +81,16 @@ impl ShadowMap {
                 let offsets = sample_offsets(1);
                 for t in tris.iter().filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
                     rasterize(t, rect, offsets, |q| {
+                        // Every lane's depth at once (pure: uncovered lanes are dropped).
+                        let (px, py) = crate::raster::pixel_center(q.x, q.y);
+                        let z = t.depths(t.quad_edges(px, py));
                         for lane in 0..4u32 {
                             if q.coverage & (1 << lane) == 0 {
                                 continue;
                             }
                             let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
-                            let (px, py) = crate::raster::pixel_center(x, y);
-                            let z = t.depth(t.edges(px, py));
                             let d = &mut depth[((y - rect.y0) * size + x) as usize];
-                            *d = d.min(z);
+                            *d = d.min(z[lane as usize]);
                         }
                     });
                 }

@@ -53,6 +53,20 @@ impl SetupTriangle {
             .map(|(a, b)| (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]))
     }
 
+    /// [`Self::edges`] at the four lanes of a quad: lane `l` one pixel right of (`x`, `y`)
+    /// when `l & 1`, one pixel down when `l & 2`. The functions are linear with integer
+    /// coefficients, so lane 0's values plus exact steps are each lane's own.
+    #[inline]
+    pub fn quad_edges(&self, x: i64, y: i64) -> [[i64; 3]; 4] {
+        let ends = self.edge_ends();
+        let right = ends.map(|(a, b)| (a[1] - b[1]) * SUBPIXEL);
+        let down = ends.map(|(a, b)| (b[0] - a[0]) * SUBPIXEL);
+        let step = |e: [i64; 3], d: [i64; 3]| [e[0] + d[0], e[1] + d[1], e[2] + d[2]];
+        let e = self.edges(x, y);
+        let e_right = step(e, right);
+        [e, e_right, step(e, down), step(e_right, down)]
+    }
+
     /// Edge `i`'s end points (from, to): the edge opposite vertex `i`.
     #[inline]
     pub fn edge_ends(&self) -> [([i64; 2], [i64; 2]); 3] {
@@ -413,6 +427,21 @@ mod tests {
     }
 
     proptest! {
+        /// A quad's stepped edge functions are each lane's own, anywhere in the guard band.
+        #[test]
+        fn quad_edges_are_the_lanes_own(
+            v in prop::array::uniform3(prop::array::uniform2(-(1i64 << 27)..1i64 << 27)),
+            x in -(1i64 << 27)..1i64 << 27,
+            y in -(1i64 << 27)..1i64 << 27,
+        ) {
+            let t = SetupTriangle { v, ..triangle([1.0; 3], [[0.0; 3]; 3]) };
+            let quad = t.quad_edges(x, y);
+            for (l, e) in quad.iter().enumerate() {
+                let (dx, dy) = ((l & 1) as i64 * SUBPIXEL, (l >> 1) as i64 * SUBPIXEL);
+                prop_assert_eq!(*e, t.edges(x + dx, y + dy));
+            }
+        }
+
         /// Four samples at once give each sample's own barycentrics and depth, bit for bit,
         /// also where the weights nearly cancel (the sum's clamp) and far outside the triangle.
         #[test]

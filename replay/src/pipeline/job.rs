@@ -241,10 +241,8 @@ fn geometry_command(
         let mut depths = [[0f32; 4]; 8];
         for (s, &offset) in ctx.offsets.iter().enumerate() {
             if q.coverage & sample_lanes(s, samples) != 0 {
-                depths[s] = setup.depths([0u32, 1, 2, 3].map(|l| {
-                    let (sx, sy) = sample_position(q.x + (l & 1), q.y + (l >> 1), offset);
-                    setup.edges(sx, sy)
-                }));
+                let (sx, sy) = sample_position(q.x, q.y, offset);
+                depths[s] = setup.depths(setup.quad_edges(sx, sy));
             }
         }
         let mut passed = 0u32;

@@ -92,11 +92,8 @@ impl UnitContext<'_> {
     /// computed four lanes at a time.
     #[inline]
     pub fn quad_attributes(&self, x: u32, y: u32) -> [LaneAttributes; 4] {
-        let edges = [0u32, 1, 2, 3].map(|l| {
-            let (px, py) = pixel_center(x + (l & 1), y + (l >> 1));
-            self.setup.edges(px, py)
-        });
-        let b = self.setup.original_barys(edges);
+        let (px, py) = pixel_center(x, y);
+        let b = self.setup.original_barys(self.setup.quad_edges(px, py));
         let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
         let g = self.geometry;
         // Per component, per lane: a_i b.x + a_j b.y + a_k b.z, summed in `interpolate`'s order.
