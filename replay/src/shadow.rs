@@ -20,6 +20,8 @@ const BAND: u32 = 64;
 /// PCF footprint radius in texels (5x5).
 const PCF_RADIUS: i32 = 2;
 const PCF_TAPS: usize = 2 * PCF_RADIUS as usize + 1;
+// A footprint's rows span at most two block rows (`ShadowMap::pcf`).
+const _: () = assert!(PCF_TAPS <= BLOCK as usize);
 
 pub struct ShadowMap {
     pub size: u32,
@@ -215,11 +217,19 @@ impl ShadowMap {
             // of texels in one or two blocks (the same accesses, in the same order).
             let x0 = (tx - PCF_RADIUS) as u32;
             let (b0, b1) = (x0 / BLOCK, (x0 + PCF_TAPS as u32 - 1) / BLOCK);
-            // Each row's block row: a run of rows per block row, at most two runs.
-            let block_rows: [u32; PCF_TAPS] =
-                std::array::from_fn(|i| (ty + i as i32 - PCF_RADIUS).clamp(0, last) as u32 / BLOCK);
+            // The rows' block rows: at most two (the footprint is shorter than a block),
+            // the first `split` rows in the first. Only the rows at the map's edges are
+            // clamped, and those lie in the outer block rows, so the rows before the second
+            // block row starts are ty - R, ty - R + 1, ...
+            let y0 = (ty - PCF_RADIUS).clamp(0, last) as u32;
+            let y1 = (ty + PCF_RADIUS).clamp(0, last) as u32;
+            let (by0, by1) = (y0 / BLOCK, y1 / BLOCK);
+            let split = match by0 == by1 {
+                true => PCF_TAPS as u32,
+                false => by1 * BLOCK - (ty - PCF_RADIUS) as u32,
+            };
             let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
-            for by in [block_rows[0], block_rows[PCF_TAPS - 1]] {
+            for by in [by0, by1] {
                 for bx in [b0, b1] {
                     let (lo, hi) = self.block_ranges[(by * blocks_x + bx) as usize];
                     (near, far) = (near.min(lo), far.max(hi));
@@ -236,18 +246,17 @@ impl ShadowMap {
             // The rows' accesses, per run of rows in one block row: its line in b0 (repeats
             // the log drops), or alternating between b0's and b1's, which the log counts as
             // one repeated pair.
-            let mut row = 0;
-            while row < PCF_TAPS {
-                let by = block_rows[row];
-                let run = block_rows[row..].iter().take_while(|&&b| b == by).count();
+            for (by, run) in [(by0, split), (by1, PCF_TAPS as u32 - split)] {
+                if run == 0 {
+                    continue;
+                }
                 let row_line = self.base_line + u64::from(by * blocks_x);
                 if b1 != b0 {
                     let (a, b) = (row_line + u64::from(b0), row_line + u64::from(b1));
-                    log.read_pair(Stream::Texture, a, b, run as u32);
+                    log.read_pair(Stream::Texture, a, b, run);
                 } else {
                     log.touch(Stream::Texture, row_line + u64::from(b0), false);
                 }
-                row += run;
             }
             if let Some(decided) = decided {
                 return decided;
@@ -282,24 +291,36 @@ impl ShadowMap {
 /// (min, max) of each BLOCK x BLOCK block of a `size`² map; a block holding a NaN gets the
 /// whole range, so that no comparison with it is ever taken as decided.
 fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
+    const COLUMNS: usize = BLOCK as usize;
     let blocks = size.div_ceil(BLOCK) as usize;
-    let (size, block) = (size as usize, BLOCK as usize);
+    let size = size as usize;
     (0..blocks)
         .into_par_iter()
         .flat_map_iter(|by| {
-            let rows = &depth[by * block * size..((by + 1) * block).min(size) * size];
+            let rows = &depth[by * COLUMNS * size..((by + 1) * COLUMNS).min(size) * size];
             (0..blocks).map(move |bx| {
-                let columns = bx * block..((bx + 1) * block).min(size);
-                let mut range = (f32::INFINITY, f32::NEG_INFINITY);
+                let columns = bx * COLUMNS..((bx + 1) * COLUMNS).min(size);
+                // Column by column first (the eight columns of a full block at once), then
+                // across: min and max are exact in any order.
+                let (mut lo, mut hi, mut nan) =
+                    ([f32::INFINITY; COLUMNS], [f32::NEG_INFINITY; COLUMNS], [false; COLUMNS]);
                 for row in rows.chunks_exact(size) {
-                    for &d in &row[columns.clone()] {
-                        if d.is_nan() {
-                            return (f32::NEG_INFINITY, f32::INFINITY);
-                        }
-                        range = (range.0.min(d), range.1.max(d));
+                    let mut add = |i: usize, d: f32| {
+                        (lo[i], hi[i]) = (lo[i].min(d), hi[i].max(d));
+                        nan[i] |= d.is_nan();
+                    };
+                    match <&[f32; COLUMNS]>::try_from(&row[columns.clone()]) {
+                        Ok(full) => (0..COLUMNS).for_each(|i| add(i, full[i])),
+                        Err(_) => row[columns.clone()].iter().enumerate().for_each(|(i, &d)| add(i, d)),
                     }
                 }
-                range
+                if nan.contains(&true) {
+                    return (f32::NEG_INFINITY, f32::INFINITY);
+                }
+                (
+                    lo.into_iter().fold(f32::INFINITY, f32::min),
+                    hi.into_iter().fold(f32::NEG_INFINITY, f32::max),
+                )
             })
         })
         .collect()
