@@ -88,26 +88,13 @@ impl UnitContext<'_> {
     }
 
     /// Attributes at the pixel centres of the quad whose top-left pixel is (`x`, `y`), lane
-    /// `l` at (`x + (l & 1)`, `y + (l >> 1)`): [`Self::attributes`] of each lane, bit for bit,
-    /// computed four lanes at a time.
+    /// `l` at (`x + (l & 1)`, `y + (l >> 1)`): [`Self::attributes`] of each lane, bit for bit
+    /// (the barycentrics four lanes at a time, then each lane's [`Self::interpolate`]).
     #[inline]
     pub fn quad_attributes(&self, x: u32, y: u32) -> [LaneAttributes; 4] {
         let (px, py) = pixel_center(x, y);
         let b = self.setup.original_barys(self.setup.quad_edges(px, py));
-        let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
-        let g = self.geometry;
-        // Per component, per lane: a_i b.x + a_j b.y + a_k b.z, summed in `interpolate`'s order.
-        let lerp =
-            |a: [f32; 3]| -> [f32; 4] { std::array::from_fn(|l| a[0] * b[0][l] + a[1] * b[1][l] + a[2] * b[2][l]) };
-        let vec3 = |a: [Vec3; 3]| [0, 1, 2].map(|c| lerp(a.map(|v| v[c])));
-        let position = vec3([g.positions[i], g.positions[j], g.positions[k]]);
-        let normal = vec3([g.normals[i], g.normals[j], g.normals[k]]);
-        let uv = [0, 1].map(|c| lerp([g.uvs[i][c], g.uvs[j][c], g.uvs[k][c]]));
-        std::array::from_fn(|l| LaneAttributes {
-            position: Vec3::new(position[0][l], position[1][l], position[2][l]),
-            normal: Vec3::new(normal[0][l], normal[1][l], normal[2][l]),
-            uv: Vec2::new(uv[0][l], uv[1][l]),
-        })
+        std::array::from_fn(|l| self.interpolate(Vec3::new(b[0][l], b[1][l], b[2][l])))
     }
 
     /// Attributes at a fixed-point screen position (8 sub-pixel bits).
