@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # shadetrace against Mesa's llvmpipe rendering the same stereo frame (1280x1440 per eye,
 # 2048² shadow map, Lambert + Phong + 5x5 PCF + trilinear albedo), back to back at 1 and 2
-# threads: ms per frame of forward, tile-pair and amfs (shadetrace's results.json
-# timing.wall_s of one replayed frame, median and min-max of REPS runs) beside llvmpipe's
-# frame_ms (bench.py, median and min-max of its repetitions), and the ratio of the medians. The kit (bench.py, cam.py) is
+# threads: ms per frame of forward, tile-pair and amfs beside llvmpipe's frame_ms (bench.py,
+# median and min-max of its repetitions), and the ratios of the medians. shadetrace's ms are
+# results.json's timing.wall_s, median and min-max of REPS runs: of one replayed frame
+# ("1 frame"), and per frame of a replay of the trace's 3 frames ("of 3"), the steady state
+# that llvmpipe's own repeated frames measure (a still scene's shadow map rendered once, and
+# at 2 threads two frames in flight). The kit (bench.py, cam.py) is
 # ../shared/anchors/llvmpipe/ beside the repository, or $LLVMPIPE_KIT.
 # Usage: [SHADETRACE_BIN=path] scripts/bench-llvmpipe.sh [--reps N] SCENE.glb...
 # (single-file GLB works best)
@@ -27,7 +30,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # "median min max" of numbers, one per line.
 spread() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)], a[1], a[NR]}'; }
-printf '%-18s %7s %-10s %18s %18s %7s\n' scene threads preset "st ms (min-max)" "llvmpipe ms" ratio
+printf '%-18s %7s %-10s %18s %18s %18s %7s %7s\n' scene threads preset "st 1 frame ms" "st ms of 3" \
+  "llvmpipe ms" ratio "of 3"
 for scene in "$@"; do
   scene=$(realpath "$scene")
   name=$(basename "$scene" | sed 's/\.[^.]*$//')
@@ -39,13 +43,19 @@ for scene in "$@"; do
     read -r lp lp_min lp_max < <(python3 -c "import json; s = json.load(open('$work/lp.json'))['summary'][0]
 print(s['frame_ms'], s['frame_ms_min'], s['frame_ms_max'])")
     for preset in forward tile-pair amfs; do
-      read -r ms ms_min ms_max < <(for _ in $(seq "$reps"); do
-        RAYON_NUM_THREADS=$threads "$bin" replay "$work/$name.strace" --preset "$preset" --frames 0 --no-images \
-          --no-reference -q --out "$work/out"
-        python3 -c "import json; print(1e3 * json.load(open('$work/out/results.json'))['timing']['wall_s'])"
-      done | spread)
-      printf '%-18s %7s %-10s %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %7.2f\n' "$name" "$threads" "$preset" \
-        "$ms" "$ms_min" "$ms_max" "$lp" "$lp_min" "$lp_max" "$(echo "$ms / $lp" | bc -l)"
+      # "median min max" ms per frame of REPS replays of frames $1 ($2 of them).
+      timed() {
+        for _ in $(seq "$reps"); do
+          RAYON_NUM_THREADS=$threads "$bin" replay "$work/$name.strace" --preset "$preset" --frames "$1" --no-images \
+            --no-reference -q --out "$work/out"
+          python3 -c "import json; print(1e3 * json.load(open('$work/out/results.json'))['timing']['wall_s'] / $2)"
+        done | spread
+      }
+      read -r ms ms_min ms_max < <(timed 0 1)
+      read -r steady steady_min steady_max < <(timed 0..3 3)
+      printf '%-18s %7s %-10s %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %6.0f (%4.0f-%4.0f) %7.2f %7.2f\n' \
+        "$name" "$threads" "$preset" "$ms" "$ms_min" "$ms_max" "$steady" "$steady_min" "$steady_max" \
+        "$lp" "$lp_min" "$lp_max" "$(echo "$ms / $lp" | bc -l)" "$(echo "$steady / $lp" | bc -l)"
     done
   done
 done

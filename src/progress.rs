@@ -1,5 +1,5 @@
 //! Progress for long work, on stderr: a bar on a terminal; where stderr is piped or logged
-//! (batch jobs, CI), a plain line every 10% with where the work is (`frame 3/30, preset
+//! (batch jobs, CI), a plain line every 10% with where the work is (`frames 3-4/30, preset
 //! 5/11 (tile-pair)`), elapsed time and an estimate of what is left, once the work has run
 //! for [`QUIET_FOR`] (short runs and one-line errors stay clean). Nothing with `--quiet`.
 
@@ -114,11 +114,17 @@ impl Progress {
     }
 }
 
-/// `frame 3/30, preset 5/11 (tile-pair)`: the frame being replayed and the presets done in it.
+/// `frames 3-4/30, preset 5/11 (tile-pair)`: the frames being replayed (`frame 3/30` for
+/// one) and the presets done with them.
 fn step_label(step: ReplayStep, frames: u32) -> String {
-    let frame = (step.frames_done + 1).min(frames.max(1));
+    let first = (step.frames_done + 1).min(frames.max(1));
+    let last = (step.frames_done + step.in_flight).clamp(first, frames.max(1));
+    let which = match first == last {
+        true => format!("frame {first}"),
+        false => format!("frames {first}-{last}"),
+    };
     format!(
-        "frame {frame}/{frames}, preset {}/{} ({})",
+        "{which}/{frames}, preset {}/{} ({})",
         step.runs_done, step.runs, step.preset
     )
 }
@@ -137,6 +143,7 @@ mod tests {
         };
         let step = ReplayStep {
             frames_done: 1,
+            in_flight: 1,
             runs_done: 1,
             runs: 10,
             preset: "amfs",
@@ -146,6 +153,14 @@ mod tests {
         assert!(
             line.starts_with("scene 2/6 floor: frame 2/3, preset 1/10 (amfs), 3/30 (10%), "),
             "{line}"
+        );
+        // Two frames in flight: both counted for the runs done with them.
+        let pair = ReplayStep { in_flight: 2, ..step };
+        assert_eq!(pair.units_done(), 12);
+        assert!(
+            step_label(pair, 3).starts_with("frames 2-3/3, "),
+            "{}",
+            step_label(pair, 3)
         );
         assert!(line.ends_with(" s left"), "{line}");
         assert!(p.line(0, "").contains(": 0/30 (0%)"));

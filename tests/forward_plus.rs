@@ -6,7 +6,7 @@
 
 use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_formats::AlphaMode;
-use shadetrace_replay::pipeline::{run_frame, CostHeat, PreparedScene};
+use shadetrace_replay::pipeline::{run_frame, CostHeat, FrameMode, PreparedScene};
 use shadetrace_replay::schedule::Immediate;
 use shadetrace_replay::scheme::{ForwardPlus, PerPixel, ShadingScheme};
 use shadetrace_replay::ReplayOptions;
@@ -51,7 +51,7 @@ fn frames(scene: &str, blend: bool, tile: u32) -> [Run; 2] {
             &opts,
             &Immediate,
             scheme,
-            CostHeat::Kept,
+            FrameMode::alone(CostHeat::Kept),
         );
         Run {
             pixels: out.views.iter().map(|v| v.pixels.clone()).collect(),

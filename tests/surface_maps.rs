@@ -9,7 +9,7 @@ mod support;
 use shadetrace_capture::{capture, CaptureOptions, Captured, Input};
 use shadetrace_formats::LightKind;
 use shadetrace_replay::cost_table::Block;
-use shadetrace_replay::pipeline::{run_frame, CostHeat, PreparedScene};
+use shadetrace_replay::pipeline::{run_frame, CostHeat, FrameMode, PreparedScene};
 use shadetrace_replay::preset::Preset;
 use shadetrace_replay::ReplayOptions;
 use support::MapsSpec;
@@ -36,7 +36,7 @@ fn render(c: &Captured, preset: &str) -> (Vec<Vec<[u8; 4]>>, u64) {
         &opts,
         &*scheduler,
         &*preset.scheme(&opts),
-        CostHeat::Kept,
+        FrameMode::alone(CostHeat::Kept),
     );
     (
         out.views.iter().map(|v| v.pixels.clone()).collect(),

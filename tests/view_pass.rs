@@ -11,7 +11,7 @@ use shadetrace_capture::{capture, CaptureOptions, Input};
 use shadetrace_replay::cost::{BlockSet, SimdPacker};
 use shadetrace_replay::cost_table::Block;
 use shadetrace_replay::pipeline::{
-    run_frame, CostHeat, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE,
+    run_frame, CostHeat, FrameMode, FrameOutput, PreparedScene, SampleBuffer, CLEAR_COLOR, NO_PRIMITIVE,
 };
 use shadetrace_replay::schedule::Immediate;
 use shadetrace_replay::scheme::{
@@ -129,7 +129,7 @@ fn frame(threads: usize, scheme: &dyn ShadingScheme) -> FrameOutput {
             &opts,
             &Immediate,
             scheme,
-            CostHeat::Kept,
+            FrameMode::alone(CostHeat::Kept),
         )
     })
 }

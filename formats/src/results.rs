@@ -530,7 +530,7 @@ pub struct Timing {
     /// Wall milliseconds per stage over all frames, so users see where their time goes:
     /// geometry, shadow, vertex, bins, raster_shade, view_pass, memory, assemble, quality,
     /// images (writing this run's pictures). Memory and assemble run at once, each timed on
-    /// its own.
+    /// its own, as are the two frames a run replays at once.
     #[serde(default)]
     pub stages_ms: BTreeMap<String, f64>,
 }

@@ -16,7 +16,7 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
-use crate::pipeline::{clear_pixel, run_frame, CostHeat, FrameOutput, PreparedScene};
+use crate::pipeline::{clear_pixel, run_frame, CostHeat, FrameMode, FrameOutput, PreparedScene, FRAMES_IN_FLIGHT};
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
 use crate::schedule::Scheduler;
@@ -86,10 +86,11 @@ pub struct RunOutput {
 pub type ImageSink<'a> = dyn FnMut(usize, &FrameImages) -> Result<(), String> + 'a;
 
 /// Where a [`replay_all`] has got to: `frames_done` whole frames, then `runs_done` of the
-/// `runs` runs of the next one, the last of them `preset`.
+/// `runs` runs through the `in_flight` frames after them, the last of those runs `preset`.
 #[derive(Clone, Copy, Debug)]
 pub struct ReplayStep<'a> {
     pub frames_done: u32,
+    pub in_flight: u32,
     pub runs_done: usize,
     pub runs: usize,
     pub preset: &'a str,
@@ -98,7 +99,7 @@ pub struct ReplayStep<'a> {
 impl ReplayStep<'_> {
     /// Runs of single frames done so far.
     pub fn units_done(&self) -> u64 {
-        u64::from(self.frames_done) * self.runs as u64 + self.runs_done as u64
+        u64::from(self.frames_done) * self.runs as u64 + self.runs_done as u64 * u64::from(self.in_flight)
     }
 }
 
@@ -109,7 +110,9 @@ impl ReplayStep<'_> {
 /// replay, not two).
 /// Without a `sink` no picture is wanted: the frames skip their cost heat maps (which only
 /// pictures show) and keep no images; every number is the same.
-/// `progress` hears after every run of every frame.
+/// With more than one thread a run replays [`FRAMES_IN_FLIGHT`] frames at once, so the
+/// reference keeps as many frames for comparison (one thread gains nothing from it and keeps
+/// one). `progress` hears after every run of every such group of frames.
 pub fn replay_all(
     trace: &LoadedTrace,
     runs: &[(Preset, ReplayOptions)],
@@ -154,45 +157,45 @@ pub fn replay_all(
                 .is_some_and(|r| run.preset.label() == r.preset.label() && run.opts == r.opts)
         })
         .collect();
-    for (done, index) in frames.enumerate() {
+    let frames: Vec<u32> = frames.collect();
+    let in_flight = match rayon::current_num_threads() {
+        1 => 1,
+        _ => FRAMES_IN_FLIGHT,
+    };
+    for (group, indices) in frames.chunks(in_flight).enumerate() {
         let mut mirrored = None;
-        let reference_frame = match reference.as_mut() {
+        let reference_frames = match reference.as_mut() {
             Some(r) => {
-                let (out, took) = r.render(trace, index, heat);
+                let rendered = r.render(trace, indices, heat);
                 if mirrors.contains(&true) {
-                    mirrored = Some((out.clone(), took));
+                    mirrored = Some(rendered.clone());
                 }
-                let images = r.record(out, took, index, None)?;
-                let result = r.results.last().cloned().ok_or("the reference made no frame")?;
-                let clear = clear_pixel();
-                let covered = images
-                    .views
-                    .each_ref()
-                    .map(|v| v.color.pixels.iter().map(|p| *p != clear).collect());
-                let luma = images.views.each_ref().map(|v| quality::luma(&v.color));
-                Some(ReferenceFrame {
-                    result,
-                    images,
-                    covered,
-                    luma,
-                })
+                let mut kept = Vec::with_capacity(indices.len());
+                for (&index, (out, took)) in indices.iter().zip(rendered) {
+                    kept.push(r.record_reference(out, took, index)?);
+                }
+                kept
             }
-            None => None,
+            None => Vec::new(),
         };
         let count = replays.len();
         for (i, replay) in replays.iter_mut().enumerate() {
-            let images = match mirrored.take_if(|_| mirrors[i]) {
-                Some((out, took)) => replay.record(out, took, index, reference_frame.as_ref())?,
-                None => replay.frame(trace, index, reference_frame.as_ref(), heat)?,
+            let rendered = match mirrored.take_if(|_| mirrors[i]) {
+                Some(copy) => copy,
+                None => replay.render(trace, indices, heat),
             };
-            if let Some(sink) = sink.as_mut() {
-                let writing = Instant::now();
-                sink(i, &images)?;
-                *replay.stages.entry("images").or_default() += writing.elapsed();
-                replay.first_images.get_or_insert(images);
+            for (k, (&index, (out, took))) in indices.iter().zip(rendered).enumerate() {
+                let images = replay.record(out, took, index, reference_frames.get(k))?;
+                if let Some(sink) = sink.as_mut() {
+                    let writing = Instant::now();
+                    sink(i, &images)?;
+                    *replay.stages.entry("images").or_default() += writing.elapsed();
+                    replay.first_images.get_or_insert(images);
+                }
             }
             progress(ReplayStep {
-                frames_done: done as u32,
+                frames_done: (group * in_flight) as u32,
+                in_flight: indices.len() as u32,
                 runs_done: i + 1,
                 runs: count,
                 preset: &replay.preset.label(),
@@ -260,32 +263,49 @@ impl Replay {
         })
     }
 
-    /// Replays frame `index`, records its results and returns its images; with the
-    /// reference's frame, relative cost and quality are filled in.
-    fn frame(
-        &mut self,
-        trace: &LoadedTrace,
-        index: u32,
-        reference: Option<&ReferenceFrame>,
-        heat: CostHeat,
-    ) -> Result<FrameImages, String> {
-        let (out, took) = self.render(trace, index, heat);
-        self.record(out, took, index, reference)
+    /// Replays frames `indices` at once, sharing the pool's threads; each comes with its
+    /// share of the time that took (the shares add up to it).
+    fn render(&self, trace: &LoadedTrace, indices: &[u32], heat: CostHeat) -> Vec<(FrameOutput, Duration)> {
+        let started = Instant::now();
+        let mode = FrameMode {
+            heat,
+            threads: (rayon::current_num_threads() / indices.len().max(1)).max(1),
+        };
+        let outputs: Vec<FrameOutput> = indices
+            .par_iter()
+            .map(|&index| {
+                run_frame(
+                    &trace.prepared,
+                    &trace.meta,
+                    &trace.frames[index as usize],
+                    &self.opts,
+                    self.scheduler.as_ref(),
+                    self.scheme.as_ref(),
+                    mode,
+                )
+            })
+            .collect();
+        let share = started.elapsed() / indices.len().max(1) as u32;
+        outputs.into_iter().map(|out| (out, share)).collect()
     }
 
-    /// Replays frame `index`; also returns how long that took.
-    fn render(&self, trace: &LoadedTrace, index: u32, heat: CostHeat) -> (FrameOutput, Duration) {
-        let started = Instant::now();
-        let out = run_frame(
-            &trace.prepared,
-            &trace.meta,
-            &trace.frames[index as usize],
-            &self.opts,
-            self.scheduler.as_ref(),
-            self.scheme.as_ref(),
-            heat,
-        );
-        (out, started.elapsed())
+    /// Records the reference's frame `index` ([`Self::record`]) and keeps it, with what every
+    /// comparison with it reads.
+    fn record_reference(&mut self, out: FrameOutput, took: Duration, index: u32) -> Result<ReferenceFrame, String> {
+        let images = self.record(out, took, index, None)?;
+        let result = self.results.last().cloned().ok_or("the reference made no frame")?;
+        let clear = clear_pixel();
+        let covered = images
+            .views
+            .each_ref()
+            .map(|v| v.color.pixels.iter().map(|p| *p != clear).collect());
+        let luma = images.views.each_ref().map(|v| quality::luma(&v.color));
+        Ok(ReferenceFrame {
+            result,
+            images,
+            covered,
+            luma,
+        })
     }
 
     /// Records frame `index`'s output (which took `took` to replay) and returns its images;

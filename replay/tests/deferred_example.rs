@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec4;
 use shadetrace_replay::cost::{BlockSet, SimdPacker, FINE};
-use shadetrace_replay::pipeline::{run_frame, CostHeat, SampleBuffer, NO_PRIMITIVE};
+use shadetrace_replay::pipeline::{run_frame, CostHeat, FrameMode, SampleBuffer, NO_PRIMITIVE};
 use shadetrace_replay::schedule::{Immediate, Scheduler, SortMiddle, TilePair};
 use shadetrace_replay::scheme::{
     Accounting, Passes, PerPixel, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext,
@@ -121,7 +121,7 @@ fn deferred_example_equals_forward_bit_for_bit() {
             &opts,
             &Immediate,
             &PerPixel,
-            CostHeat::Kept,
+            FrameMode::alone(CostHeat::Kept),
         );
         for scheduler in schedulers {
             let deferred = run_frame(
@@ -131,7 +131,7 @@ fn deferred_example_equals_forward_bit_for_bit() {
                 &opts,
                 scheduler,
                 &DeferredPerPixel,
-                CostHeat::Kept,
+                FrameMode::alone(CostHeat::Kept),
             );
             for v in 0..2 {
                 assert!(
@@ -175,7 +175,7 @@ fn pixels_covered_counts_the_pixels_that_are_not_clear() {
             &opts,
             &Immediate,
             &PerPixel,
-            CostHeat::Kept,
+            FrameMode::alone(CostHeat::Kept),
         );
         for view in &out.views {
             let not_clear = view.pixels.iter().filter(|p| p[..3] != clear).count() as u64;

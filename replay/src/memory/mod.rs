@@ -636,8 +636,8 @@ fn replay_memo(entries: u64, runs: &[&[u32]]) -> (MemoOutcome, Slots, CacheStats
 }
 
 /// Replays the accesses of one frame, segment by segment in the given order, through
-/// fresh caches.
-pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
+/// fresh caches, on up to `threads` threads (the counts do not depend on how many).
+pub fn simulate(sizes: CacheSizes, segments: &[LogSegment], threads: usize) -> Replayed {
     let runs = StreamRuns::gather(segments);
     // Streams without an entry replay nothing: their caches are skipped.
     let used: [bool; STREAMS] = std::array::from_fn(|s| !runs.runs[s].is_empty());
@@ -649,7 +649,7 @@ pub fn simulate(sizes: CacheSizes, segments: &[LogSegment]) -> Replayed {
     // The caches are independent: each replays its own stream of the same order, in parts
     // of its sets, one task per part (the counts do not depend on how many).
     // A power of two, so that a set's part is a mask of its index.
-    let parts = 1u64 << rayon::current_num_threads().max(1).ilog2();
+    let parts = 1u64 << threads.max(1).ilog2();
     let run_part = |stream: Stream, bytes: u64, part: u64| {
         if !used[stream as usize] {
             return (0, 0, CacheStats::default());
@@ -865,7 +865,7 @@ mod tests {
             traffic,
             caches: report,
             ..
-        } = simulate(sizes, &[(&l, 0)]);
+        } = simulate(sizes, &[(&l, 0)], 1);
         assert_eq!(report.depth.misses, 3);
         assert_eq!(report.depth.cleared_fills, 2);
         assert_eq!(report.depth.writebacks, 1);
@@ -875,7 +875,7 @@ mod tests {
             (Stream::Texture, 1, false),
             (Stream::Texture, 2, false),
         ]);
-        let traffic = simulate(sizes, &[(&t, 0)]).traffic;
+        let traffic = simulate(sizes, &[(&t, 0)], 1).traffic;
         assert_eq!(traffic.bytes(TEXTURE), 2 * LINE_BYTES);
     }
 
@@ -893,7 +893,7 @@ mod tests {
             (Stream::TriangleBuffer, 3, false),
         ]);
         let sizes = tiny_caches(4);
-        let replayed = simulate(sizes, &[(&l, 0)]);
+        let replayed = simulate(sizes, &[(&l, 0)], 1);
         let memo = replayed.memo.expect("lookups were logged");
         assert_eq!(memo.misses, [4, 1]);
         assert_eq!(memo.redundant, [1, 0]);
@@ -941,7 +941,7 @@ mod tests {
         let segments: Vec<LogSegment> = l.segments().map(|(i, _)| (&l, i)).collect();
         let with = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| simulate(sizes, &segments))
+            pool.install(|| simulate(sizes, &segments, threads))
         };
         let one = with(1);
         for threads in [2, 3, 4, 8] {
@@ -992,7 +992,7 @@ mod tests {
             let replay = |log: &AccessLog, threads| {
                 let segments: Vec<LogSegment> = log.segments().map(|(i, _)| (log, i)).collect();
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                pool.install(|| simulate(sizes, &segments))
+                pool.install(|| simulate(sizes, &segments, threads))
             };
             let expected = replay(&literal, 1);
             for threads in [1, 2, 4] {
@@ -1073,7 +1073,7 @@ mod tests {
                     let segments: Vec<LogSegment> =
                         (0..commands).flat_map(|i| [(&logs[0], i), (&logs[1], i)]).collect();
                     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                    pool.install(|| simulate(sizes, &segments))
+                    pool.install(|| simulate(sizes, &segments, threads))
                 };
                 let expected = replay(&plain, 1);
                 for threads in [1, 2, 4] {

@@ -54,7 +54,7 @@ pub struct PreparedScene {
     /// Shadow maps already rendered, shared by every run over this scene: a map depends on
     /// the casters' positions and its size only, so a scene whose meshes never move renders
     /// each size once, and a moving one once per frame for all presets ("model only what a
-    /// scene requires"). Only the latest frame's maps are kept, so memory stays flat.
+    /// scene requires"). Only the maps of the frames in flight are kept, so memory stays flat.
     shadow_maps: Mutex<Vec<(ShadowKey, Arc<ShadowMap>)>>,
     /// No mesh moves: every frame's shadow map is the same.
     static_casters: bool,
@@ -154,8 +154,33 @@ pub enum CostHeat {
     Skipped,
 }
 
-/// Runs one frame through `scheduler` x `scheme`; `heat` says whether the views keep their
-/// cost heat maps.
+/// How a frame runs apart from what it replays: nothing here changes a number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameMode {
+    pub heat: CostHeat,
+    /// The pool's threads this frame has to itself (frames in flight share the pool): its
+    /// memory replay runs in as many parts. More parts would only have each scan the whole
+    /// log for its own sets while the other frame's work waits.
+    pub threads: usize,
+}
+
+impl FrameMode {
+    /// A frame that has the pool to itself.
+    pub fn alone(heat: CostHeat) -> FrameMode {
+        FrameMode {
+            heat,
+            threads: rayon::current_num_threads(),
+        }
+    }
+}
+
+/// Frames a run replays at once with more than one thread ([`crate::replay_all`]). A frame's
+/// serial stages (vertex setup and binning at its start, the memory replay's parts at its
+/// end) leave threads idle that the other frame's parallel stages take. Every number is the
+/// same at any count: frames are independent.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
+/// Runs one frame through `scheduler` x `scheme`, as `mode` says.
 pub fn run_frame(
     prepared: &PreparedScene,
     meta: &Meta,
@@ -163,8 +188,9 @@ pub fn run_frame(
     opts: &ReplayOptions,
     scheduler: &dyn Scheduler,
     scheme: &dyn ShadingScheme,
-    heat: CostHeat,
+    mode: FrameMode,
 ) -> FrameOutput {
+    let FrameMode { heat, threads } = mode;
     let (width, height) = opts.resolution.unwrap_or((frame.rig.eye_width, frame.rig.eye_height));
     let mut rig = frame.rig;
     rig.eye_width = width;
@@ -281,7 +307,7 @@ pub fn run_frame(
     // The memory replay and the views' assembly only read the jobs' outputs: they run at once
     // (the replay's parts leave a thread idle that the assembly takes).
     let ((replayed, memory_time), (views, assemble_time)) = rayon::join(
-        || timed(|| memory_pass(sizes, scheduler, &jobs, &outputs, passes)),
+        || timed(|| memory_pass(sizes, scheduler, &jobs, &outputs, passes, threads)),
         || timed(|| rayon::join(|| assemble_view(0, left), || assemble_view(1, right))),
     );
     clock.overlapped(&[("memory", memory_time), ("assemble", assemble_time)]);
@@ -344,14 +370,19 @@ fn shadow_pass(
         _ => None,
     })?;
     let key = ((!prepared.static_casters).then_some(frame), opts.shadow_map_size);
-    // Runs replay a frame one after another, so the lock is never contended.
-    let mut maps = prepared
-        .shadow_maps
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
-    if let Some((_, map)) = maps.iter().find(|(k, _)| *k == key) {
-        return Some(map.clone());
+    let cached = |maps: &[(ShadowKey, Arc<ShadowMap>)]| maps.iter().find(|(k, _)| *k == key).map(|(_, m)| m.clone());
+    let lock = || {
+        prepared
+            .shadow_maps
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    };
+    if let Some(map) = cached(&lock()) {
+        return Some(map);
     }
+    // Rendered without the lock, which a frame in flight beside this one may want: a
+    // thread never waits on another, and the map is the same whoever renders it (two
+    // frames of a still scene may both render it once; the first kept is the one used).
     let map = Arc::new(ShadowMap::render(
         geometry,
         prepared.scene.materials.len(),
@@ -360,7 +391,15 @@ fn shadow_pass(
         opts.shadow_map_size,
         prepared.texture_lines,
     ));
-    maps.retain(|((f, _), _)| *f == key.0);
+    let mut maps = lock();
+    if let Some(kept) = cached(&maps) {
+        return Some(kept);
+    }
+    // A moving scene's maps of frames no longer in flight are dropped.
+    maps.retain(|((f, _), _)| match (*f, key.0) {
+        (Some(f), Some(frame)) => f.abs_diff(frame) < FRAMES_IN_FLIGHT as u32,
+        _ => true,
+    });
     maps.push((key, map.clone()));
     Some(map)
 }
@@ -405,6 +444,7 @@ fn memory_pass(
     jobs: &[Job],
     outputs: &[JobOutput],
     view_pass: Option<&[JobOutput]>,
+    threads: usize,
 ) -> Replayed {
     // Keys are unique (they end in the job and segment), so the parallel sort's order is
     // the one order there is.
@@ -434,5 +474,5 @@ fn memory_pass(
                 .flat_map(|out| out.log.segments().map(|(segment, _)| (&out.log, segment))),
         );
     }
-    simulate(sizes, &ordered)
+    simulate(sizes, &ordered, threads)
 }
