@@ -42,7 +42,11 @@ impl BlockSet {
 
     pub fn clear(&mut self) {
         self.fixed = 0;
-        self.lights.iter_mut().for_each(|l| *l = LightBlocks::empty());
+        // Once per lane: one light (the usual scene) is one store, not a call to memset.
+        match self.lights.as_mut_slice() {
+            [only] => *only = LightBlocks::empty(),
+            lights => lights.fill(LightBlocks::empty()),
+        }
     }
 
     #[inline]
@@ -70,21 +74,40 @@ impl BlockSet {
             add(FIXED_BLOCKS[i as usize].cost());
         }
         for &flags in &self.lights {
-            for (flag, block) in [
-                (LightBlocks::DIFFUSE, Block::Diffuse),
-                (LightBlocks::SPECULAR, Block::Specular),
-                (LightBlocks::SHADOW, Block::Shadow),
-                (LightBlocks::LOCAL, Block::LocalLight),
-                (LightBlocks::TEST, Block::LightTest),
-            ] {
-                if flags.contains(flag) {
-                    add(block.cost());
-                }
-            }
+            add(LIGHT_COSTS[flags.bits() as usize]);
         }
         c
     }
 }
+
+/// Each light flag's block.
+const LIGHT_FLAG_BLOCKS: [(LightBlocks, Block); 5] = [
+    (LightBlocks::DIFFUSE, Block::Diffuse),
+    (LightBlocks::SPECULAR, Block::Specular),
+    (LightBlocks::SHADOW, Block::Shadow),
+    (LightBlocks::LOCAL, Block::LocalLight),
+    (LightBlocks::TEST, Block::LightTest),
+];
+
+/// The cost of a light's blocks by its flags' bits: one lookup per light and lane.
+const _: () = assert!((LightBlocks::all().bits() as usize) < LIGHT_COSTS.len());
+const LIGHT_COSTS: [BlockCost; 1 << LIGHT_FLAG_BLOCKS.len()] = {
+    let mut costs = [BlockCost { alu: 0, tex: 0 }; 1 << LIGHT_FLAG_BLOCKS.len()];
+    let mut bits = 0;
+    while bits < costs.len() {
+        let mut i = 0;
+        while i < LIGHT_FLAG_BLOCKS.len() {
+            let (flag, block) = LIGHT_FLAG_BLOCKS[i];
+            if bits as u8 & flag.bits() != 0 {
+                costs[bits].alu += block.cost().alu;
+                costs[bits].tex += block.cost().tex;
+            }
+            i += 1;
+        }
+        bits += 1;
+    }
+    costs
+};
 
 /// `Block` by discriminant, for iterating the `fixed` bits.
 const FIXED_BLOCKS: [Block; 47] = [
@@ -152,6 +175,39 @@ pub fn dense_lanes(block: Block, n: u64, width: u32) -> StageCost {
     }
 }
 
+/// A job's cost heat: the instructions issued per pixel id, in the order they were issued
+/// (consecutive adds to one pixel folded into one entry), or nothing in a frame that draws
+/// no heat map: its packers then keep no lane pixels at all.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CostHeatList(Option<Vec<(u32, u32)>>);
+
+impl CostHeatList {
+    /// A list that keeps its entries (`true`) or drops them.
+    pub fn new(kept: bool) -> CostHeatList {
+        CostHeatList(kept.then(Vec::new))
+    }
+
+    pub fn is_kept(&self) -> bool {
+        self.0.is_some()
+    }
+
+    /// Adds `n` instructions to `pixel` (wrapping, like the map's sums).
+    #[inline]
+    pub fn add(&mut self, pixel: u32, n: u32) {
+        if let Some(list) = &mut self.0 {
+            match list.last_mut() {
+                Some((last, sum)) if *last == pixel => *sum = sum.wrapping_add(n),
+                _ => list.push((pixel, n)),
+            }
+        }
+    }
+
+    /// The entries, in order (none when not kept).
+    pub fn entries(&self) -> &[(u32, u32)] {
+        self.0.as_deref().unwrap_or_default()
+    }
+}
+
 /// Groups lanes into SIMD groups of `width` and counts what each group issues. Lanes that
 /// are not useful (helper lanes, idle lanes) still widen the union when they take blocks.
 pub struct SimdPacker {
@@ -179,7 +235,7 @@ impl SimdPacker {
     }
 
     /// Adds one lane; `pixel` is its heat-map id (`u32::MAX`: none). When a group issues,
-    /// `heat(pixel, instructions)` is called for each of its lanes.
+    /// its instructions are added to each of its lanes' pixels in `heat`.
     #[inline]
     pub fn lane(
         &mut self,
@@ -187,7 +243,7 @@ impl SimdPacker {
         useful: bool,
         pixel: u32,
         stage: &mut StageCost,
-        heat: &mut dyn FnMut(u32, u32),
+        heat: &mut CostHeatList,
     ) {
         self.union.union_with(blocks);
         if useful {
@@ -196,7 +252,9 @@ impl SimdPacker {
             self.useful_tex += c.tex as u64;
             self.useful_lanes += 1;
         }
-        self.pixels.push(pixel);
+        if heat.is_kept() {
+            self.pixels.push(pixel);
+        }
         self.lanes += 1;
         if self.lanes == self.width {
             self.flush(stage, heat);
@@ -204,7 +262,7 @@ impl SimdPacker {
     }
 
     /// Issues the open group, if any (at the end of a unit of work).
-    pub fn flush(&mut self, stage: &mut StageCost, heat: &mut dyn FnMut(u32, u32)) {
+    pub fn flush(&mut self, stage: &mut StageCost, heat: &mut CostHeatList) {
         if self.lanes == 0 {
             return;
         }
@@ -218,7 +276,7 @@ impl SimdPacker {
         let issued = c.alu + c.tex;
         for &p in &self.pixels {
             if p != u32::MAX {
-                heat(p, issued);
+                heat.add(p, issued);
             }
         }
         self.pixels.clear();
@@ -238,8 +296,7 @@ mod tests {
     fn a_group_issues_the_union_of_its_lanes() {
         let mut packer = SimdPacker::new(4, 1);
         let mut stage = StageCost::default();
-        let mut heat_map = [0u32; 4];
-        let mut heat = |p: u32, n: u32| heat_map[p as usize] += n;
+        let mut heat = CostHeatList::new(true);
         let mut lit = BlockSet::new(1);
         lit.take(Block::Compose);
         lit.lights[0] = LightBlocks::DIFFUSE | LightBlocks::SHADOW;
@@ -259,7 +316,43 @@ mod tests {
             stage.useful_lane_alu,
             (2 * (compose.alu + diffuse.alu) + shadow.alu) as u64
         );
-        assert_eq!(heat_map[..3], [stage.issued() as u32; 3]);
-        assert_eq!(heat_map[3], 0);
+        let issued = stage.issued() as u32;
+        assert_eq!(heat.entries(), [(0, issued), (1, issued), (2, issued)]);
+    }
+
+    /// The table of light costs is the sum of each flag's block.
+    #[test]
+    fn light_costs_add_up_their_flags_blocks() {
+        for bits in 0..=LightBlocks::all().bits() {
+            let flags = LightBlocks::from_bits(bits).unwrap();
+            let (mut alu, mut tex) = (0, 0);
+            for (flag, block) in LIGHT_FLAG_BLOCKS {
+                if flags.contains(flag) {
+                    (alu, tex) = (alu + block.cost().alu, tex + block.cost().tex);
+                }
+            }
+            assert_eq!(LIGHT_COSTS[bits as usize], BlockCost { alu, tex }, "{flags:?}");
+        }
+    }
+
+    /// A frame without heat maps counts the same and keeps no heat.
+    #[test]
+    fn heat_left_out_counts_the_same() {
+        let mut blocks = BlockSet::new(1);
+        blocks.take(Block::Compose);
+        blocks.lights[0] = LightBlocks::DIFFUSE;
+        let run = |kept| {
+            let mut packer = SimdPacker::new(4, 1);
+            let (mut stage, mut heat) = (StageCost::default(), CostHeatList::new(kept));
+            for pixel in 0..6 {
+                packer.lane(&blocks, pixel % 3 != 0, pixel, &mut stage, &mut heat);
+            }
+            packer.flush(&mut stage, &mut heat);
+            (stage, heat)
+        };
+        let ((kept, heat), (skipped, none)) = (run(true), run(false));
+        assert_eq!(kept, skipped);
+        assert_eq!(heat.entries().len(), 6);
+        assert!(none.entries().is_empty());
     }
 }

@@ -44,7 +44,7 @@ pub fn view<'a>(
                     .copy_from_slice(&tile.pixels[row * tile_width..(row + 1) * tile_width]);
             }
         }
-        for &(pixel, n) in out.heat.iter().flatten().filter(|(p, _)| in_view(*p)) {
+        for &(pixel, n) in out.heat.entries().iter().filter(|(p, _)| in_view(*p)) {
             let sum = &mut cost_heat[index(pixel)];
             *sum = sum.wrapping_add(n);
         }

@@ -13,6 +13,7 @@ use super::sample_buffer::{depth_passes, SampleBuffer};
 use super::CostHeat;
 use crate::bins::TileGrid;
 use crate::command::{Command, Job, Unit};
+use crate::cost::CostHeatList;
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
 use crate::raster::{rasterize, sample_position};
@@ -54,11 +55,11 @@ pub struct JobOutput {
     pub raster: [RasterStats; 2],
     pub cost: [ShadingCost; 2],
     pub tiles: Vec<TileImage>,
-    /// Instructions per pixel id (None: the frame skips its heat maps) and refinement bits
-    /// per pixel id, in the order the job produced them (repeats of the last pixel folded
-    /// in); the view's assembly adds them up, which is order-independent (wrapping sums,
-    /// bitwise or).
-    pub heat: Option<Vec<(u32, u32)>>,
+    /// Instructions per pixel id (none kept when the frame skips its heat maps) and
+    /// refinement bits per pixel id, in the order the job produced them (repeats of the last
+    /// pixel folded in); the view's assembly adds them up, which is order-independent
+    /// (wrapping sums, bitwise or).
+    pub heat: CostHeatList,
     pub refinement: Vec<(u32, u8)>,
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
@@ -98,7 +99,7 @@ impl JobOutput {
             raster: [RasterStats::default(); 2],
             cost: [ShadingCost::new(simd_width), ShadingCost::new(simd_width)],
             tiles: Vec::new(),
-            heat: (heat == CostHeat::Kept).then(Vec::new),
+            heat: CostHeatList::new(heat == CostHeat::Kept),
             refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
@@ -110,21 +111,13 @@ impl JobOutput {
     /// Runs `f` with the accounting of view `v`: its cost, the command's log, the job's heat
     /// and refinement maps and its cache statistics.
     pub fn account<R>(&mut self, v: usize, log: &mut AccessLog, f: impl FnOnce(&mut Accounting) -> R) -> R {
-        let heat = &mut self.heat;
         let refinement = &mut self.refinement;
         let traffic = &mut self.traffic;
         let counters = &mut self.counters;
         f(&mut Accounting {
             cost: &mut self.cost[v],
             log,
-            heat: &mut |pixel, n| {
-                if let Some(heat) = heat {
-                    match heat.last_mut() {
-                        Some((last, sum)) if *last == pixel => *sum = sum.wrapping_add(n),
-                        _ => heat.push((pixel, n)),
-                    }
-                }
-            },
+            heat: &mut self.heat,
             refinement: &mut |pixel, bits| match refinement.last_mut() {
                 Some((last, all)) if *last == pixel => *all |= bits,
                 _ => refinement.push((pixel, bits)),

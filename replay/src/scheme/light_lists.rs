@@ -9,7 +9,7 @@ use glam::{Mat4, Vec3, Vec4};
 use shadetrace_formats::LightKind;
 
 use super::Accounting;
-use crate::cost::{BlockSet, SimdPacker};
+use crate::cost::{BlockSet, CostHeatList, SimdPacker};
 use crate::cost_table::Block;
 use crate::pipeline::{SampleBuffer, NO_PRIMITIVE};
 use crate::raster::Rect;
@@ -160,10 +160,10 @@ pub fn depth_bounds(
                     bounds = Some(bounds.map_or((z, z), |(a, b)| (a.min(z), b.max(z))));
                 }
             }
-            packer.lane(blocks, true, u32::MAX, stage, &mut |_, _| {});
+            packer.lane(blocks, true, u32::MAX, stage, &mut CostHeatList::default());
         }
     }
-    packer.flush(stage, &mut |_, _| {});
+    packer.flush(stage, &mut CostHeatList::default());
     bounds
 }
 
@@ -173,9 +173,9 @@ pub fn charge_culling(tested: usize, packer: &mut SimdPacker, blocks: &mut Block
     blocks.clear();
     blocks.take(Block::LightCull);
     for _ in 0..tested {
-        packer.lane(blocks, true, u32::MAX, stage, &mut |_, _| {});
+        packer.lane(blocks, true, u32::MAX, stage, &mut CostHeatList::default());
     }
-    packer.flush(stage, &mut |_, _| {});
+    packer.flush(stage, &mut CostHeatList::default());
 }
 
 #[cfg(test)]

@@ -21,6 +21,7 @@ pub use reprojection::{HoleFill, Reprojection};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{DaisStats, ReprojectionStats, ShadingCacheStats, ShadingCost, Traffic};
 
+use crate::cost::CostHeatList;
 use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
 use crate::pipeline::{Counters, SampleBuffer};
@@ -168,8 +169,8 @@ impl UnitContext<'_> {
 pub struct Accounting<'a> {
     pub cost: &'a mut ShadingCost,
     pub log: &'a mut AccessLog,
-    /// Per-pixel cost heat: `(pixel id, instructions)`.
-    pub heat: &'a mut dyn FnMut(u32, u32),
+    /// Per-pixel cost heat.
+    pub heat: &'a mut CostHeatList,
     /// Effects refined to per-pixel rate: `(pixel id, Effects bits)`.
     pub refinement: &'a mut dyn FnMut(u32, u8),
     /// Shading-cache activity of the unit's view.

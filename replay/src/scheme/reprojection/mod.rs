@@ -462,7 +462,7 @@ impl ReprojectionJob {
             stage.alu += issued;
             stage.useful_lanes += group.len() as u64;
             for pixel in lanes {
-                (acc.heat)(pixel, issued as u32);
+                acc.heat.add(pixel, issued as u32);
             }
         }
         let stage = acc.cost.stage_mut(TRAVERSAL);
