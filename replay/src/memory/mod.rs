@@ -510,30 +510,16 @@ impl Cache {
         self.stats.accesses += 1;
         let ways = self.shape.ways;
         let base = self.shape.set_of(line) as usize * ways;
-        let slots = &mut self.slots[base..base + ways];
-        let tag = line + 1;
-        let dirty = if write { DIRTY } else { 0 };
-        // A hit on the most recently used line changes nothing but its dirty bit: the
-        // common case (a texture footprint alternates between lines of different sets).
-        if slots[0] & !DIRTY == tag {
-            slots[0] |= dirty;
-            return (false, false);
-        }
-        // Move to front: the slots before the hit (or all but the last, on a miss) shift
-        // back by one.
-        let (hit, last) = match slots.iter().position(|&s| s & !DIRTY == tag) {
-            Some(pos) => (true, pos),
-            None => (false, slots.len() - 1),
+        let (tag, dirty) = (line + 1, if write { DIRTY } else { 0 });
+        // Every cache of [`WAYS`] ways (all but the smallest) goes through a set of known
+        // length, whose search and shift the compiler unrolls.
+        let evicted = match <&mut [u64; WAYS]>::try_from(&mut self.slots[base..base + ways]) {
+            Ok(set) => move_to_front(set, tag, dirty),
+            Err(_) => move_to_front(&mut self.slots[base..base + ways], tag, dirty),
         };
-        let moved = slots[last];
-        for i in (1..=last).rev() {
-            slots[i] = slots[i - 1];
-        }
-        if hit {
-            slots[0] = moved | dirty;
+        let Some(moved) = evicted else {
             return (false, false);
-        }
-        slots[0] = tag | dirty;
+        };
         self.stats.misses += 1;
         let evicted_dirty = moved != 0 && moved & DIRTY != 0;
         if evicted_dirty {
@@ -548,6 +534,35 @@ impl Cache {
         self.slots.iter_mut().for_each(|s| *s &= !DIRTY);
         self.stats.writebacks += n;
         n
+    }
+}
+
+/// Looks `tag` up in a set's slots (most recently used first) and moves it to the front,
+/// marked `dirty` when written: None on a hit, else the slot the miss evicted. Inlined, so
+/// that a set of known length is searched and shifted without a loop.
+#[inline(always)]
+fn move_to_front(slots: &mut [u64], tag: u64, dirty: u64) -> Option<u64> {
+    // A hit on the most recently used line changes nothing but its dirty bit: the common
+    // case (a texture footprint alternates between lines of different sets).
+    if slots[0] & !DIRTY == tag {
+        slots[0] |= dirty;
+        return None;
+    }
+    // Move to front: the slots before the hit (or all but the last, on a miss) shift back
+    // by one.
+    let hit = slots.iter().position(|&s| s & !DIRTY == tag);
+    let last = hit.unwrap_or(slots.len() - 1);
+    let moved = slots[last];
+    slots.copy_within(0..last, 1);
+    match hit {
+        Some(_) => {
+            slots[0] = moved | dirty;
+            None
+        }
+        None => {
+            slots[0] = tag | dirty;
+            Some(moved)
+        }
     }
 }
 
