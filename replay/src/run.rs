@@ -16,7 +16,9 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
-use crate::pipeline::{clear_pixel, run_frame, CostHeat, FrameMode, FrameOutput, PreparedScene, FRAMES_IN_FLIGHT};
+use crate::pipeline::{
+    clear_pixel, run_frame, share_still_shadow_map, CostHeat, FrameMode, FrameOutput, PreparedScene, FRAMES_IN_FLIGHT,
+};
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
 use crate::schedule::Scheduler;
@@ -206,6 +208,17 @@ pub fn replay_all(
     Ok(replays.into_iter().map(|r| r.finish(trace, reference_issued)).collect())
 }
 
+/// The pixels of a refinement map per refined effect, counted in one pass over the map.
+fn refined_pixels(refinement: &[u8]) -> RefinedPixels {
+    let has = |r: u8, e: Effects| u64::from(r & e.bits() != 0);
+    refinement.iter().fold(RefinedPixels::default(), |n, &r| RefinedPixels {
+        diffuse: n.diffuse + has(r, Effects::DIFFUSE),
+        specular: n.specular + has(r, Effects::SPECULAR),
+        shadow: n.shadow + has(r, Effects::SHADOW),
+        any: n.any + has(r, Effects::all()),
+    })
+}
+
 /// One preset's replay in progress.
 struct Replay {
     preset: Preset,
@@ -267,17 +280,27 @@ impl Replay {
     /// share of the time that took (the shares add up to it).
     fn render(&self, trace: &LoadedTrace, indices: &[u32], heat: CostHeat) -> Vec<(FrameOutput, Duration)> {
         let started = Instant::now();
+        let frame = |index: u32| &trace.frames[index as usize];
+        let shared_shadow = match indices {
+            [first, _, ..] => Some(share_still_shadow_map(
+                &trace.prepared,
+                &trace.meta,
+                frame(*first),
+                &self.opts,
+            )),
+            _ => None,
+        };
         let mode = FrameMode {
             heat,
             threads: (rayon::current_num_threads() / indices.len().max(1)).max(1),
         };
-        let outputs: Vec<FrameOutput> = indices
+        let mut outputs: Vec<FrameOutput> = indices
             .par_iter()
             .map(|&index| {
                 run_frame(
                     &trace.prepared,
                     &trace.meta,
-                    &trace.frames[index as usize],
+                    frame(index),
                     &self.opts,
                     self.scheduler.as_ref(),
                     self.scheme.as_ref(),
@@ -285,6 +308,9 @@ impl Replay {
                 )
             })
             .collect();
+        if let (Some(time), Some(first)) = (shared_shadow, outputs.first_mut()) {
+            first.stage_times.push(("shadow", time));
+        }
         let share = started.elapsed() / indices.len().max(1) as u32;
         outputs.into_iter().map(|out| (out, share)).collect()
     }
@@ -362,15 +388,7 @@ impl Replay {
             if let Some(q) = quality.and_then(|q| q.ssim_covered) {
                 self.total.min_ssim_covered = Some(self.total.min_ssim_covered.map_or(q, |m: f64| m.min(q)));
             }
-            let refined_pixels = info.reports_refinement.then(|| {
-                let count = |e: Effects| view.refinement.iter().filter(|&&r| r & e.bits() != 0).count() as u64;
-                RefinedPixels {
-                    diffuse: count(Effects::DIFFUSE),
-                    specular: count(Effects::SPECULAR),
-                    shadow: count(Effects::SHADOW),
-                    any: count(Effects::all()),
-                }
-            });
+            let refined_pixels = info.reports_refinement.then(|| refined_pixels(&view.refinement));
             views.push(ViewResult {
                 eye: Eye::BOTH[v].name().to_string(),
                 vertex: view.vertex,

@@ -15,6 +15,7 @@ mod sample_buffer;
 mod stage_clock;
 mod view_pass;
 
+use glam::Vec3;
 use rayon::prelude::*;
 use shadetrace_formats::results::{
     CacheReport, DaisStats, ListStats, RasterStats, ReprojectionStats, ShadingCacheStats, ShadingCost, ShadowPassStats,
@@ -22,6 +23,7 @@ use shadetrace_formats::results::{
 };
 use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use crate::bins::{Bins, TileGrid};
 use crate::command::{Command, Job};
@@ -356,6 +358,45 @@ pub fn run_frame(
     }
 }
 
+/// Renders the shadow map that every frame of a still scene shares unless it is cached, so
+/// that frames about to run at once all find it instead of each rendering it; returns how
+/// long that took (shadow-stage time).
+pub fn share_still_shadow_map(prepared: &PreparedScene, meta: &Meta, frame: &Frame, opts: &ReplayOptions) -> Duration {
+    let started = Instant::now();
+    let key = shadow_key(prepared, frame.index, opts);
+    if prepared.static_casters && shadowed_direction(prepared).is_some() && cached_shadow_map(prepared, key).is_none() {
+        shadow_pass(
+            prepared,
+            meta,
+            frame.index,
+            &FrameGeometry::build(&prepared.scene, frame),
+            opts,
+        );
+    }
+    started.elapsed()
+}
+
+/// The direction of the trace's shadowed directional light, if it has one.
+fn shadowed_direction(prepared: &PreparedScene) -> Option<Vec3> {
+    prepared.lights.iter().find(|l| l.shadowed).and_then(|l| match l.kind {
+        LightKind::Directional { direction } => Some(direction),
+        _ => None,
+    })
+}
+
+/// What a frame's shadow map depends on: its casters (the frame, unless none moves) and size.
+fn shadow_key(prepared: &PreparedScene, frame: u32, opts: &ReplayOptions) -> ShadowKey {
+    ((!prepared.static_casters).then_some(frame), opts.shadow_map_size)
+}
+
+fn cached_shadow_map(prepared: &PreparedScene, key: ShadowKey) -> Option<Arc<ShadowMap>> {
+    let maps = prepared
+        .shadow_maps
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    maps.iter().find(|(k, _)| *k == key).map(|(_, map)| map.clone())
+}
+
 /// The shadow map of the trace's shadowed directional light, if it has one: rendered, or
 /// the one already rendered for the same casters and size.
 fn shadow_pass(
@@ -365,24 +406,14 @@ fn shadow_pass(
     geometry: &FrameGeometry,
     opts: &ReplayOptions,
 ) -> Option<Arc<ShadowMap>> {
-    let direction = prepared.lights.iter().find(|l| l.shadowed).and_then(|l| match l.kind {
-        LightKind::Directional { direction } => Some(direction),
-        _ => None,
-    })?;
-    let key = ((!prepared.static_casters).then_some(frame), opts.shadow_map_size);
-    let cached = |maps: &[(ShadowKey, Arc<ShadowMap>)]| maps.iter().find(|(k, _)| *k == key).map(|(_, m)| m.clone());
-    let lock = || {
-        prepared
-            .shadow_maps
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
-    };
-    if let Some(map) = cached(&lock()) {
+    let direction = shadowed_direction(prepared)?;
+    let key = shadow_key(prepared, frame, opts);
+    if let Some(map) = cached_shadow_map(prepared, key) {
         return Some(map);
     }
     // Rendered without the lock, which a frame in flight beside this one may want: a
-    // thread never waits on another, and the map is the same whoever renders it (two
-    // frames of a still scene may both render it once; the first kept is the one used).
+    // thread never waits on another, and the map is the same whoever renders it (the
+    // first kept is the one used).
     let map = Arc::new(ShadowMap::render(
         geometry,
         prepared.scene.materials.len(),
@@ -391,9 +422,12 @@ fn shadow_pass(
         opts.shadow_map_size,
         prepared.texture_lines,
     ));
-    let mut maps = lock();
-    if let Some(kept) = cached(&maps) {
-        return Some(kept);
+    let mut maps = prepared
+        .shadow_maps
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, kept)) = maps.iter().find(|(k, _)| *k == key) {
+        return Some(kept.clone());
     }
     // A moving scene's maps of frames no longer in flight are dropped.
     maps.retain(|((f, _), _)| match (*f, key.0) {
