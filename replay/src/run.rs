@@ -107,7 +107,7 @@ impl ReplayStep<'_> {
 
 /// Replays `trace` with each `(preset, options)` of `runs`, frame by frame in lockstep with
 /// the reference (`forward` under `reference` options, when given) so that relative cost and
-/// quality are measured per frame while only one frame's images are alive. A run of the
+/// quality are measured per frame while only the frames in flight have images alive. A run of the
 /// reference preset itself, under the reference's options, is a copy of the reference run (one
 /// replay, not two).
 /// Without a `sink` no picture is wanted: the frames skip their cost heat maps (which only

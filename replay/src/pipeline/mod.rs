@@ -22,7 +22,7 @@ use shadetrace_formats::results::{
     Traffic, VertexStats,
 };
 use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use crate::bins::{Bins, TileGrid};
@@ -364,7 +364,10 @@ pub fn run_frame(
 pub fn share_still_shadow_map(prepared: &PreparedScene, meta: &Meta, frame: &Frame, opts: &ReplayOptions) -> Duration {
     let started = Instant::now();
     let key = shadow_key(prepared, frame.index, opts);
-    if prepared.static_casters && shadowed_direction(prepared).is_some() && cached_shadow_map(prepared, key).is_none() {
+    if prepared.static_casters
+        && shadowed_direction(prepared).is_some()
+        && cached(&shadow_maps(prepared), key).is_none()
+    {
         shadow_pass(
             prepared,
             meta,
@@ -389,11 +392,16 @@ fn shadow_key(prepared: &PreparedScene, frame: u32, opts: &ReplayOptions) -> Sha
     ((!prepared.static_casters).then_some(frame), opts.shadow_map_size)
 }
 
-fn cached_shadow_map(prepared: &PreparedScene, key: ShadowKey) -> Option<Arc<ShadowMap>> {
-    let maps = prepared
+/// The scene's shadow-map cache, locked (a panic elsewhere leaves only whole maps in it).
+fn shadow_maps(prepared: &PreparedScene) -> MutexGuard<'_, Vec<(ShadowKey, Arc<ShadowMap>)>> {
+    prepared
         .shadow_maps
         .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// The cached map of `key`, if any.
+fn cached(maps: &[(ShadowKey, Arc<ShadowMap>)], key: ShadowKey) -> Option<Arc<ShadowMap>> {
     maps.iter().find(|(k, _)| *k == key).map(|(_, map)| map.clone())
 }
 
@@ -408,7 +416,7 @@ fn shadow_pass(
 ) -> Option<Arc<ShadowMap>> {
     let direction = shadowed_direction(prepared)?;
     let key = shadow_key(prepared, frame, opts);
-    if let Some(map) = cached_shadow_map(prepared, key) {
+    if let Some(map) = cached(&shadow_maps(prepared), key) {
         return Some(map);
     }
     // Rendered without the lock, which a frame in flight beside this one may want: a
@@ -422,12 +430,9 @@ fn shadow_pass(
         opts.shadow_map_size,
         prepared.texture_lines,
     ));
-    let mut maps = prepared
-        .shadow_maps
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
-    if let Some((_, kept)) = maps.iter().find(|(k, _)| *k == key) {
-        return Some(kept.clone());
+    let mut maps = shadow_maps(prepared);
+    if let Some(kept) = cached(&maps, key) {
+        return Some(kept);
     }
     // A moving scene's maps of frames no longer in flight are dropped.
     maps.retain(|((f, _), _)| match (*f, key.0) {
