@@ -34,6 +34,7 @@ pub use config::{
     DEFAULT_SAMPLING,
 };
 use object_space::{CellBlock, LaneSource};
+use tile_pair_cache::CacheScratch;
 
 pub struct Multirate(pub MultirateConfig);
 
@@ -106,6 +107,7 @@ impl ShadingScheme for Multirate {
             terms: vec![LightTerm::default(); lights],
             spare_terms: Vec::new(),
             cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
+            cache_scratch: CacheScratch::default(),
             reuse_packer: SimdPacker::new(simd_width, lights),
             cells: Vec::new(),
             quad_params: Vec::new(),
@@ -156,6 +158,7 @@ struct MultirateJob {
     /// per block).
     spare_terms: Vec<Vec<LightTerm>>,
     cache: Option<(CacheConfig, ShadingCache)>,
+    cache_scratch: CacheScratch,
     reuse_packer: SimdPacker,
     /// Object-space schemes: each block's cell, each quad's lane parameters and lattice
     /// levels, and where each quad's lanes read their terms (the blocks are cells, not

@@ -331,7 +331,7 @@ impl MultirateJob {
                 cache.counters.queries += 1;
                 match cache.get(&cell.key(i, frame.surface)) {
                     Some(e) => {
-                        b.terms[i * n..(i + 1) * n].copy_from_slice(&e.terms);
+                        b.terms[i * n..(i + 1) * n].copy_from_slice(e.terms);
                         (positions[i], normals[i]) = (e.position, e.normal);
                         if e.view == ctx.view {
                             cache.counters.local_hits += 1;
@@ -378,8 +378,8 @@ impl MultirateJob {
                     CacheEntry {
                         position: positions[i],
                         normal: normals[i],
-                        r_dot_l: Vec::new(),
-                        terms: b.terms[i * n..(i + 1) * n].to_vec(),
+                        r_dot_l: &[],
+                        terms: &b.terms[i * n..(i + 1) * n],
                         refine: Effects::empty(),
                         view: ctx.view,
                     },

@@ -66,7 +66,11 @@ impl MultirateJob {
         };
         // Power-of-two quantization, rounded so that an unchanged footprint keeps its rate.
         let n_other = 1u32 << (((b.size / 2) as f32 * ratio).max(1.0).log2().round() as u32).min(3);
-        let mut reused: [Option<(Vec<LightTerm>, Effects)>; 4] = [None, None, None, None];
+        // Per fragment, the refinement flags of what it reuses; its terms go to `reused`.
+        let mut reused: [Option<Effects>; 4] = [None; 4];
+        let scratch = &mut self.cache_scratch;
+        scratch.reused.clear();
+        scratch.reused.resize(4 * n, LightTerm::default());
         for i in 0..4 {
             let lane = self.coarse_lane(pixels[i], true);
             if i == 0 {
@@ -80,10 +84,13 @@ impl MultirateJob {
                 (positions[i] - e.position).length() <= test.position * distance
                     && (normal - e.normal).length() <= test.normal
             };
+            let scratch = &mut self.cache_scratch;
+            let slot = i * n..(i + 1) * n;
             if let Some(e) = cache.get(&keys[i]) {
                 self.coarse_lanes[lane].blocks.take(Block::ReuseTest);
-                if fits(e) {
-                    reused[i] = Some((e.terms.clone(), e.refine));
+                if fits(&e) {
+                    scratch.reused[slot].copy_from_slice(e.terms);
+                    reused[i] = Some(e.refine);
                     cache.counters.local_hits += 1;
                     continue;
                 }
@@ -102,11 +109,14 @@ impl MultirateJob {
             };
             if let Some(e) = cache.get(&there) {
                 self.coarse_lanes[lane].blocks.take(Block::ReuseCrossView);
-                let r = r_dot_l(ctx, positions[i], normal);
+                r_dot_l(ctx, positions[i], normal, &mut scratch.r_dot_l);
+                let r = &scratch.r_dot_l;
                 let reusable =
-                    |e: &CacheEntry| fits(e) && r.iter().zip(&e.r_dot_l).all(|(a, c)| (a - c).abs() <= test.r_dot_l);
-                if reusable(e) {
-                    let nearest = (e.terms.clone(), e.refine);
+                    |e: &CacheEntry| fits(e) && r.iter().zip(e.r_dot_l).all(|(a, c)| (a - c).abs() <= test.r_dot_l);
+                if reusable(&e) {
+                    // The nearest, kept in case the interpolation below is incomplete.
+                    scratch.reused[slot.clone()].copy_from_slice(e.terms);
+                    let nearest_refine = e.refine;
                     // The projected fragment rarely sits on a cached one: interpolate the four
                     // cached neighbours bilinearly when all are there and reusable, else take
                     // the one it falls in.
@@ -119,13 +129,15 @@ impl MultirateJob {
                         ..there
                     });
                     let weights = [(1.0 - fu) * (1.0 - fv), fu * (1.0 - fv), (1.0 - fu) * fv, fu * fv];
-                    let mut mixed = vec![LightTerm::default(); n];
+                    let mixed = &mut scratch.mixed;
+                    mixed.clear();
+                    mixed.resize(n, LightTerm::default());
                     let mut refine = Effects::empty();
                     let mut complete = true;
                     for (key, w) in corners.iter().zip(weights) {
                         match cache.get(key) {
-                            Some(c) if reusable(c) => {
-                                for (m, t) in mixed.iter_mut().zip(&c.terms) {
+                            Some(c) if reusable(&c) => {
+                                for (m, t) in mixed.iter_mut().zip(c.terms) {
                                     m.scale += w * t.scale;
                                     m.diffuse += w * t.diffuse;
                                     m.specular += w * t.specular;
@@ -135,7 +147,13 @@ impl MultirateJob {
                             _ => complete = false,
                         }
                     }
-                    reused[i] = Some(if complete { (mixed, refine) } else { nearest });
+                    reused[i] = Some(match complete {
+                        true => {
+                            scratch.reused[slot].copy_from_slice(mixed);
+                            refine
+                        }
+                        false => nearest_refine,
+                    });
                     cache.counters.cross_view_hits += 1;
                     continue;
                 }
@@ -145,13 +163,8 @@ impl MultirateJob {
         let all = reused.iter().all(Option::is_some);
         if all {
             cache.counters.blocks_skipped += 1;
-            let mut refine = Effects::empty();
-            for (i, r) in reused.into_iter().enumerate() {
-                let (terms, flags) = r.expect("all four reused");
-                b.terms[i * n..(i + 1) * n].copy_from_slice(&terms);
-                refine |= flags;
-            }
-            b.refine = refine;
+            b.terms.copy_from_slice(&self.cache_scratch.reused);
+            b.refine = reused.into_iter().flatten().fold(Effects::empty(), |a, f| a | f);
         } else {
             cache.counters.blocks_shaded += 1;
         }
@@ -170,15 +183,17 @@ impl MultirateJob {
     ) {
         let n = self.lights;
         if let Some((_, cache)) = self.cache.as_mut() {
+            let r = &mut self.cache_scratch.r_dot_l;
             for i in 0..4 {
                 let normal = normals[i].normalize_or(Vec3::Y);
+                r_dot_l(ctx, positions[i], normal, r);
                 cache.put(
                     keys[i],
                     CacheEntry {
                         position: positions[i],
                         normal,
-                        r_dot_l: r_dot_l(ctx, positions[i], normal),
-                        terms: b.terms[i * n..(i + 1) * n].to_vec(),
+                        r_dot_l: r,
+                        terms: &b.terms[i * n..(i + 1) * n],
                         refine: b.refine,
                         view: ctx.view,
                     },
@@ -188,14 +203,22 @@ impl MultirateJob {
     }
 }
 
+/// What cache queries and stores work in, kept across blocks (no allocation per query).
+#[derive(Default)]
+pub(super) struct CacheScratch {
+    /// Per fragment of the block, the terms it reuses.
+    reused: Vec<LightTerm>,
+    /// A cross-view hit's interpolated terms.
+    mixed: Vec<LightTerm>,
+    /// A point's `R · L` per light.
+    r_dot_l: Vec<f32>,
+}
+
 /// Per light, the cosine between the reflected view direction and the light direction at a
-/// point seen from this unit's eye (the cross-view check of Algorithm 2).
-fn r_dot_l(ctx: &UnitContext, position: Vec3, normal: Vec3) -> Vec<f32> {
+/// point seen from this unit's eye (the cross-view check of Algorithm 2), into `out`.
+fn r_dot_l(ctx: &UnitContext, position: Vec3, normal: Vec3, out: &mut Vec<f32>) {
     let v = (ctx.eye - position).normalize_or(Vec3::Z);
     let r = (2.0 * normal.dot(v) * normal - v).normalize_or(normal);
-    ctx.env
-        .lights
-        .iter()
-        .map(|light| r.dot(light.direction_from(position)))
-        .collect()
+    out.clear();
+    out.extend(ctx.env.lights.iter().map(|light| r.dot(light.direction_from(position))));
 }
