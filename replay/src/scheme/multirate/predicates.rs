@@ -31,7 +31,13 @@ impl MultirateJob {
         let n = self.lights;
         let term = |i: usize, l: usize| b.terms[i * n + l];
         let material = &ctx.env.materials[ctx.triangle.material as usize];
-        let mut charged = vec![Block::PredicateDiffuse, Block::PredicateSpecular];
+        // The predicate blocks run: the shadow one only with a shadowed light and a map.
+        let predicate_blocks = [
+            Block::PredicateDiffuse,
+            Block::PredicateSpecular,
+            Block::PredicateShadow,
+        ];
+        let mut charged = &predicate_blocks[..2];
 
         // Directional lights: the variation of N·L itself (§4.1). Local lights: the variation
         // of their falloff-weighted Lambert term, relative to the block's mean lighting, so a
@@ -61,7 +67,7 @@ impl MultirateJob {
 
         let mut shadow = false;
         if let (Some(k), Some(map)) = (ctx.env.lights.iter().position(|l| l.shadowed), ctx.env.shadow) {
-            charged.push(Block::PredicateShadow);
+            charged = &predicate_blocks[..];
             // Threshold 0 refines every effect; otherwise a block wholly facing away from the
             // light has no shadow to refine.
             shadow = t.shadow == 0.0;
@@ -75,7 +81,7 @@ impl MultirateJob {
             }
         }
         for lane in b.first_lane..b.first_lane + 4 {
-            for &block in &charged {
+            for &block in charged {
                 self.coarse_lanes[lane].blocks.take(block);
             }
         }
