@@ -17,7 +17,8 @@ use shadetrace_formats::{ContentHash, Eye, Frame, Meta, TraceReader};
 use crate::images::Rgba8Image;
 use crate::options::ReplayOptions;
 use crate::pipeline::{
-    clear_pixel, run_frame, share_still_shadow_map, CostHeat, FrameMode, FrameOutput, PreparedScene, FRAMES_IN_FLIGHT,
+    clear_pixel, run_frame, share_still_shadow_map, Colors, CostHeat, FrameMode, FrameOutput, PreparedScene,
+    FRAMES_IN_FLIGHT,
 };
 use crate::preset::{Preset, REFERENCE_PRESET};
 use crate::quality;
@@ -59,6 +60,7 @@ pub fn load_trace(path: &Path) -> Result<LoadedTrace, String> {
 
 /// Images of one view of one frame.
 pub struct ViewImages {
+    /// Without pixels when the run skipped its colours (no sink and no reference).
     pub color: Rgba8Image,
     /// Issued shading instructions per pixel.
     pub cost_heat: Vec<u32>,
@@ -111,7 +113,8 @@ impl ReplayStep<'_> {
 /// reference preset itself, under the reference's options, is a copy of the reference run (one
 /// replay, not two).
 /// Without a `sink` no picture is wanted: the frames skip their cost heat maps (which only
-/// pictures show) and keep no images; every number is the same.
+/// pictures show) and keep no images; without a reference either, nothing reads a colour and
+/// the frames skip them too ([`Colors`]). Every number is the same.
 /// With more than one thread a run replays [`FRAMES_IN_FLIGHT`] frames at once, so the
 /// reference keeps as many frames for comparison (one thread gains nothing from it and keeps
 /// one). `progress` hears after every run of every such group of frames.
@@ -125,6 +128,10 @@ pub fn replay_all(
     let heat = match sink {
         Some(_) => CostHeat::Kept,
         None => CostHeat::Skipped,
+    };
+    let colors = match (&sink, reference) {
+        (None, None) => Colors::Skipped,
+        _ => Colors::Kept,
     };
     let mut replays = runs
         .iter()
@@ -168,7 +175,7 @@ pub fn replay_all(
         let mut mirrored = None;
         let reference_frames = match reference.as_mut() {
             Some(r) => {
-                let rendered = r.render(trace, indices, heat);
+                let rendered = r.render(trace, indices, heat, colors);
                 if mirrors.contains(&true) {
                     mirrored = Some(rendered.clone());
                 }
@@ -184,7 +191,7 @@ pub fn replay_all(
         for (i, replay) in replays.iter_mut().enumerate() {
             let rendered = match mirrored.take_if(|_| mirrors[i]) {
                 Some(copy) => copy,
-                None => replay.render(trace, indices, heat),
+                None => replay.render(trace, indices, heat, colors),
             };
             for (k, (&index, (out, took))) in indices.iter().zip(rendered).enumerate() {
                 let images = replay.record(out, took, index, reference_frames.get(k))?;
@@ -278,7 +285,13 @@ impl Replay {
 
     /// Replays frames `indices` at once, sharing the pool's threads; each comes with its
     /// share of the time that took (the shares add up to it).
-    fn render(&self, trace: &LoadedTrace, indices: &[u32], heat: CostHeat) -> Vec<(FrameOutput, Duration)> {
+    fn render(
+        &self,
+        trace: &LoadedTrace,
+        indices: &[u32],
+        heat: CostHeat,
+        colors: Colors,
+    ) -> Vec<(FrameOutput, Duration)> {
         let started = Instant::now();
         let frame = |index: u32| &trace.frames[index as usize];
         let shared_shadow = match indices {
@@ -292,6 +305,7 @@ impl Replay {
         };
         let mode = FrameMode {
             heat,
+            colors,
             threads: (rayon::current_num_threads() / indices.len().max(1)).max(1),
         };
         let mut outputs: Vec<FrameOutput> = indices

@@ -5,7 +5,7 @@ use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost, V
 
 use super::job::JobOutput;
 use super::resolve::clear_pixel;
-use super::{CostHeat, ViewOutput};
+use super::{Colors, CostHeat, ViewOutput};
 use crate::bins::TileGrid;
 
 /// Heat and refinement maps key pixels as `view << 30 | y * width + x`.
@@ -15,11 +15,14 @@ pub fn view<'a>(
     v: usize,
     vertex: VertexStats,
     grid: TileGrid,
-    (simd_width, heat): (u32, CostHeat),
+    (simd_width, heat, colors): (u32, CostHeat, Colors),
     outputs: impl IntoIterator<Item = &'a JobOutput>,
 ) -> ViewOutput {
     let (width, height) = (grid.width, grid.height);
-    let mut pixels = vec![clear_pixel(); (width * height) as usize];
+    let mut pixels = match colors {
+        Colors::Kept => vec![clear_pixel(); (width * height) as usize],
+        Colors::Skipped => Vec::new(),
+    };
     let mut cost_heat = match heat {
         CostHeat::Kept => vec![0u32; (width * height) as usize],
         CostHeat::Skipped => Vec::new(),
@@ -36,6 +39,9 @@ pub fn view<'a>(
         cost.add(&out.cost[v]);
         for tile in out.tiles.iter().filter(|t| t.view as usize == v) {
             raster.pixels_covered += tile.covered;
+            if colors == Colors::Skipped {
+                continue;
+            }
             let r = tile.rect;
             let tile_width = (r.x1 - r.x0) as usize;
             for (row, y) in (r.y0..r.y1).enumerate() {

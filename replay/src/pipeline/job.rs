@@ -10,7 +10,7 @@ use shadetrace_formats::AlphaMode;
 use super::blend::{merge, MergeInput};
 use super::resolve::{resolve, TileImage};
 use super::sample_buffer::{depth_passes, SampleBuffer};
-use super::CostHeat;
+use super::{Colors, CostHeat};
 use crate::bins::TileGrid;
 use crate::command::{Command, Job, Unit};
 use crate::cost::CostHeatList;
@@ -46,6 +46,7 @@ pub struct JobContext<'a> {
     /// Keep tile buffers after the resolve (a view pass reads them).
     pub keep_buffers: bool,
     pub heat: CostHeat,
+    pub colors: Colors,
 }
 
 /// Everything a job produced; per-view arrays are indexed by view.
@@ -174,7 +175,7 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
         }
     }
     out.log = log;
-    out.tiles = buffers.values().map(resolve).collect();
+    out.tiles = buffers.values().map(|buffer| resolve(buffer, ctx.colors)).collect();
     if ctx.keep_buffers {
         out.buffers = buffers.into_values().collect();
     }

@@ -131,7 +131,7 @@ pub struct ViewOutput {
     pub cost: ShadingCost,
     pub width: u32,
     pub height: u32,
-    /// sRGB pixels, row-major.
+    /// sRGB pixels, row-major; empty when the frame skipped them ([`Colors::Skipped`]).
     pub pixels: Vec<[u8; 4]>,
     /// Issued instructions per pixel (every SIMD group adds its count to each of its lanes);
     /// empty when the frame skipped it ([`CostHeat::Skipped`]).
@@ -156,10 +156,21 @@ pub enum CostHeat {
     Skipped,
 }
 
+/// Whether anything reads a frame's colours: a picture, or a comparison with the
+/// reference. A run of numbers alone skips them: each tile's resolve to sRGB and the views'
+/// pictures (7 MB per frame at 1280x1440 per eye). Coverage is counted either way, and no
+/// counter depends on the colours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Colors {
+    Kept,
+    Skipped,
+}
+
 /// How a frame runs apart from what it replays: nothing here changes a number.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FrameMode {
     pub heat: CostHeat,
+    pub colors: Colors,
     /// The pool's threads this frame has to itself (frames in flight share the pool): its
     /// memory replay runs in as many parts. More parts would only have each scan the whole
     /// log for its own sets while the other frame's work waits.
@@ -167,10 +178,11 @@ pub struct FrameMode {
 }
 
 impl FrameMode {
-    /// A frame that has the pool to itself.
+    /// A frame that has the pool to itself, with its colours.
     pub fn alone(heat: CostHeat) -> FrameMode {
         FrameMode {
             heat,
+            colors: Colors::Kept,
             threads: rayon::current_num_threads(),
         }
     }
@@ -192,7 +204,7 @@ pub fn run_frame(
     scheme: &dyn ShadingScheme,
     mode: FrameMode,
 ) -> FrameOutput {
-    let FrameMode { heat, threads } = mode;
+    let FrameMode { heat, colors, threads } = mode;
     let (width, height) = opts.resolution.unwrap_or((frame.rig.eye_width, frame.rig.eye_height));
     let mut rig = frame.rig;
     rig.eye_width = width;
@@ -260,6 +272,7 @@ pub fn run_frame(
         z_prepass,
         keep_buffers: declared.is_some(),
         heat,
+        colors,
     };
     let outputs: Vec<JobOutput> = jobs.par_iter().map(|job| run_job(&ctx, job, scheme)).collect();
     clock.lap("raster_shade");
@@ -297,14 +310,14 @@ pub fn run_frame(
                 v,
                 setup.stats,
                 grid,
-                (opts.simd_width, heat),
+                (opts.simd_width, heat, colors),
                 outputs.iter().chain(&made.outputs),
             );
-            let image = resolve::resolve(&made.frame);
+            let image = resolve::resolve(&made.frame, colors);
             (view.pixels, view.raster.pixels_covered) = (image.pixels, image.covered);
             view
         }
-        _ => assemble::view(v, setup.stats, grid, (opts.simd_width, heat), &outputs),
+        _ => assemble::view(v, setup.stats, grid, (opts.simd_width, heat, colors), &outputs),
     };
     // The memory replay and the views' assembly only read the jobs' outputs: they run at once
     // (the replay's parts leave a thread idle that the assembly takes).

@@ -3,6 +3,7 @@
 use glam::Vec4;
 
 use super::sample_buffer::{SampleBuffer, CLEAR_COLOR};
+use super::Colors;
 use crate::raster::Rect;
 use crate::srgb::linear_to_srgb8;
 
@@ -10,18 +11,22 @@ use crate::srgb::linear_to_srgb8;
 pub struct TileImage {
     pub view: u8,
     pub rect: Rect,
+    /// Empty when the frame skips its colours.
     pub pixels: Vec<[u8; 4]>,
     /// Pixels with at least one sample covered by a surface.
     pub covered: u64,
 }
 
-pub fn resolve(buffer: &SampleBuffer) -> TileImage {
+pub fn resolve(buffer: &SampleBuffer, colors: Colors) -> TileImage {
     let samples = buffer.samples;
-    let pixels = buffer
-        .color
-        .chunks_exact(samples)
-        .map(|s| encode(s.iter().copied().sum::<Vec4>() / samples as f32))
-        .collect();
+    let pixels = match colors {
+        Colors::Kept => buffer
+            .color
+            .chunks_exact(samples)
+            .map(|s| encode(s.iter().copied().sum::<Vec4>() / samples as f32))
+            .collect(),
+        Colors::Skipped => Vec::new(),
+    };
     let covered = (0..buffer.blended.len())
         .filter(|&p| buffer.covered(p * samples))
         .count() as u64;
