@@ -553,7 +553,11 @@ fn move_to_front(slots: &mut [u64], tag: u64, dirty: u64) -> Option<u64> {
     let hit = slots.iter().position(|&s| s & !DIRTY == tag);
     let last = hit.unwrap_or(slots.len() - 1);
     let moved = slots[last];
-    slots.copy_within(0..last, 1);
+    // A loop, not `copy_within`: a shift of at most three slots is cheaper than a call to
+    // `memmove`.
+    for i in (1..=last).rev() {
+        slots[i] = slots[i - 1];
+    }
     match hit {
         Some(_) => {
             slots[0] = moved | dirty;
