@@ -99,6 +99,8 @@ impl ShadingScheme for Multirate {
             coarse_packer: SimdPacker::new(simd_width, lights),
             fine_packer: SimdPacker::new(simd_width, lights),
             blocks: Vec::new(),
+            kept_blocks: Vec::new(),
+            finer_blocks: Vec::new(),
             coarse_lanes: Vec::new(),
             coarse_used: 0,
             fine_lanes: Vec::new(),
@@ -147,6 +149,10 @@ struct MultirateJob {
     coarse_packer: SimdPacker,
     fine_packer: SimdPacker,
     blocks: Vec<CoarseBlock>,
+    /// DYNAMIC4x4's lists of the blocks kept and of a refined block's 2x2 blocks, empty
+    /// between uses (no allocation per unit or block).
+    kept_blocks: Vec<CoarseBlock>,
+    finer_blocks: Vec<CoarseBlock>,
     /// Lane pools, reused across units (no per-pixel allocation); `*_used` are live.
     coarse_lanes: Vec<CoarseLane>,
     coarse_used: usize,
@@ -221,19 +227,22 @@ impl MultirateJob {
         }
         if self.config.mode == CoarseMode::Dynamic4x4 {
             // Refined 4x4 blocks are re-shaded at 2x2; their first coarse pass still counts.
-            let mut kept = Vec::with_capacity(blocks.len());
+            let mut kept = std::mem::take(&mut self.kept_blocks);
+            let mut finer = std::mem::take(&mut self.finer_blocks);
             for b in blocks.drain(..) {
                 if b.refine.is_empty() {
                     kept.push(b);
                     continue;
                 }
-                let mut finer = Vec::new();
                 Self::group(quads, 4, Some(&b), &mut finer);
-                for mut sub in finer {
+                self.spare_terms.push(b.terms);
+                for mut sub in finer.drain(..) {
                     self.shade_block(ctx, &mut sub, log);
                     kept.push(sub);
                 }
             }
+            // The emptied list keeps its room for the next unit's.
+            (self.kept_blocks, self.finer_blocks) = (blocks, finer);
             blocks = kept;
         }
         self.blocks = blocks;
