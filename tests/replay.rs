@@ -55,9 +55,9 @@ fn identical_results_and_images_at_any_thread_count() {
     }
 }
 
-/// A replay that writes no pictures skips their cost heat maps and keeps no images: every
-/// number is the same (a multi-rate scheme that reports refinement, a stereo scheduler, a
-/// view pass).
+/// A replay that writes no pictures skips their cost heat maps and keeps no images, and one
+/// without the reference either skips its colours: every number is the same (a multi-rate
+/// scheme that reports refinement, a stereo scheduler, a view pass).
 #[test]
 fn replays_without_pictures_count_the_same() {
     let dir = tempfile::tempdir().unwrap();
@@ -74,7 +74,30 @@ fn replays_without_pictures_count_the_same() {
             .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "png"))
             .count();
         assert_eq!(pictures, 0, "{name}/{preset}: --no-images wrote pictures");
+        let bare = ["--res", "160x180", "--no-images", "--no-reference"];
+        let (colourless, _) = replay(name, preset, &bare, None, dir.path());
+        assert_eq!(
+            counters(&with),
+            counters(&colourless),
+            "{name}/{preset}: skipping the colours changed a counter"
+        );
     }
+}
+
+/// Every counter of a results.json that does not compare with the reference.
+fn counters(results: &Value) -> Vec<&Value> {
+    let mut counters = Vec::new();
+    for frame in results["frames"].as_array().unwrap() {
+        for key in ["traffic", "caches", "lists", "shadow_pass"] {
+            counters.push(&frame[key]);
+        }
+        for view in frame["views"].as_array().unwrap() {
+            for key in ["vertex", "raster", "cost", "refined_pixels", "shading_cache"] {
+                counters.push(&view[key]);
+            }
+        }
+    }
+    counters
 }
 
 /// `forward` run against the reference records a copy of the reference's replay instead of
