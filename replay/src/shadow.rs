@@ -146,23 +146,24 @@ impl ShadowMap {
     fn build_receivers(&self, delta: f32) -> ReceiverHierarchy {
         let n = self.size as usize;
         let words = n.div_ceil(64);
-        let z = |x: usize, y: usize| self.depth[y * n + x];
+        let row = |y: usize| &self.depth[y * n..(y + 1) * n];
         // Rows are independent at every level: they are built in parallel.
         let mut base = vec![0u64; words * n];
-        base.par_chunks_mut(words).enumerate().for_each(|(y, row)| {
-            for x in 0..n {
-                let c = z(x, y);
+        base.par_chunks_mut(words).enumerate().for_each(|(y, bits)| {
+            let here = row(y);
+            // The rows above and below (none at the map's top and bottom: no ddy there).
+            let around = (y > 0 && y + 1 < n).then(|| (row(y - 1), row(y + 1)));
+            for (x, &c) in here.iter().enumerate() {
                 let ddx = if x > 0 && x + 1 < n {
-                    z(x - 1, y) - 2.0 * c + z(x + 1, y)
+                    here[x - 1] - 2.0 * c + here[x + 1]
                 } else {
                     0.0
                 };
-                let ddy = if y > 0 && y + 1 < n {
-                    z(x, y - 1) - 2.0 * c + z(x, y + 1)
-                } else {
-                    0.0
+                let ddy = match around {
+                    Some((above, below)) => above[x] - 2.0 * c + below[x],
+                    None => 0.0,
                 };
-                row[x / 64] |= u64::from((-ddx).max(-ddy) >= delta) << (x % 64);
+                bits[x / 64] |= u64::from((-ddx).max(-ddy) >= delta) << (x % 64);
             }
         });
         let mut hierarchy = ReceiverHierarchy {
