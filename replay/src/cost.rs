@@ -62,22 +62,42 @@ impl BlockSet {
     }
 
     pub fn cost(&self) -> BlockCost {
-        let mut c = BlockCost { alu: 0, tex: 0 };
-        let mut add = |b: BlockCost| {
+        self.cost_with_fixed(fixed_cost(self.fixed))
+    }
+
+    /// [`Self::cost`], given the cost of the light-independent blocks (`fixed_cost(self.fixed)`).
+    fn cost_with_fixed(&self, fixed: BlockCost) -> BlockCost {
+        let mut c = fixed;
+        for &flags in &self.lights {
+            let b = LIGHT_COSTS[flags.bits() as usize];
             c.alu += b.alu;
             c.tex += b.tex;
-        };
-        let mut bits = self.fixed;
-        while bits != 0 {
-            let i = bits.trailing_zeros();
-            bits &= bits - 1;
-            add(FIXED_BLOCKS[i as usize].cost());
-        }
-        for &flags in &self.lights {
-            add(LIGHT_COSTS[flags.bits() as usize]);
         }
         c
     }
+}
+
+/// `blocks.cost()`, its light-independent part taken from `memo` (bits, their cost) when
+/// the bits are the same, else costed and kept there.
+#[inline]
+fn memoized_cost(memo: &mut (u64, BlockCost), blocks: &BlockSet) -> BlockCost {
+    if blocks.fixed != memo.0 {
+        *memo = (blocks.fixed, fixed_cost(blocks.fixed));
+    }
+    blocks.cost_with_fixed(memo.1)
+}
+
+/// The cost of the light-independent blocks whose bits `fixed` has.
+fn fixed_cost(fixed: u64) -> BlockCost {
+    let mut c = BlockCost { alu: 0, tex: 0 };
+    let mut bits = fixed;
+    while bits != 0 {
+        let b = FIXED_BLOCKS[bits.trailing_zeros() as usize].cost();
+        bits &= bits - 1;
+        c.alu += b.alu;
+        c.tex += b.tex;
+    }
+    c
 }
 
 /// Each light flag's block.
@@ -219,6 +239,9 @@ pub struct SimdPacker {
     useful_lanes: u64,
     /// Pixel index of each lane in the open group (for the cost heat map).
     pixels: Vec<u32>,
+    /// The last light-independent blocks costed and their cost: a unit's lanes mostly take
+    /// the same ones.
+    fixed_memo: (u64, BlockCost),
 }
 
 impl SimdPacker {
@@ -231,6 +254,7 @@ impl SimdPacker {
             useful_tex: 0,
             useful_lanes: 0,
             pixels: Vec::with_capacity(width as usize),
+            fixed_memo: (0, BlockCost { alu: 0, tex: 0 }),
         }
     }
 
@@ -247,7 +271,7 @@ impl SimdPacker {
     ) {
         self.union.union_with(blocks);
         if useful {
-            let c = blocks.cost();
+            let c = memoized_cost(&mut self.fixed_memo, blocks);
             self.useful_alu += c.alu as u64;
             self.useful_tex += c.tex as u64;
             self.useful_lanes += 1;
@@ -266,7 +290,7 @@ impl SimdPacker {
         if self.lanes == 0 {
             return;
         }
-        let c = self.union.cost();
+        let c = memoized_cost(&mut self.fixed_memo, &self.union);
         stage.groups += 1;
         stage.alu += c.alu as u64;
         stage.tex += c.tex as u64;
