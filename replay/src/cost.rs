@@ -61,11 +61,7 @@ impl BlockSet {
         }
     }
 
-    pub fn cost(&self) -> BlockCost {
-        self.cost_with_fixed(fixed_cost(self.fixed))
-    }
-
-    /// [`Self::cost`], given the cost of the light-independent blocks (`fixed_cost(self.fixed)`).
+    /// The set's cost, given that of its light-independent blocks (`fixed_cost(self.fixed)`).
     fn cost_with_fixed(&self, fixed: BlockCost) -> BlockCost {
         let mut c = fixed;
         for &flags in &self.lights {
@@ -77,8 +73,8 @@ impl BlockSet {
     }
 }
 
-/// `blocks.cost()`, its light-independent part taken from `memo` (bits, their cost) when
-/// the bits are the same, else costed and kept there.
+/// The cost of `blocks`, its light-independent part taken from `memo` (bits, their cost)
+/// when the bits are the same, else costed and kept there.
 #[inline]
 fn memoized_cost(memo: &mut (u64, BlockCost), blocks: &BlockSet) -> BlockCost {
     if blocks.fixed != memo.0 {

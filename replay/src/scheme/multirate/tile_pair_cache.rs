@@ -68,9 +68,8 @@ impl MultirateJob {
         let n_other = 1u32 << (((b.size / 2) as f32 * ratio).max(1.0).log2().round() as u32).min(3);
         // Per fragment, the refinement flags of what it reuses; its terms go to `reused`.
         let mut reused: [Option<Effects>; 4] = [None; 4];
-        let scratch = &mut self.cache_scratch;
-        scratch.reused.clear();
-        scratch.reused.resize(4 * n, LightTerm::default());
+        self.cache_scratch.reused.clear();
+        self.cache_scratch.reused.resize(4 * n, LightTerm::default());
         for i in 0..4 {
             let lane = self.coarse_lane(pixels[i], true);
             if i == 0 {
