@@ -2,7 +2,7 @@
 //! consecutive lanes and issues the union of their blocks, and the counters record issued
 //! and useful instructions per stage.
 
-use shadetrace_formats::results::StageCost;
+use shadetrace_formats::results::{ShadingCost, StageCost};
 
 use crate::cost_table::{Block, BlockCost};
 
@@ -221,6 +221,34 @@ impl CostHeatList {
     /// The entries, in order (none when not kept).
     pub fn entries(&self) -> &[(u32, u32)] {
         self.0.as_deref().unwrap_or_default()
+    }
+}
+
+/// A job's counters per stage, by the stage's static name: found by a short scan instead of
+/// a lookup in the report's map of owned names (a few times per unit), and added to the
+/// view's [`ShadingCost`] once the job is done.
+#[derive(Clone, Debug, Default)]
+pub struct StageCosts(Vec<(&'static str, StageCost)>);
+
+impl StageCosts {
+    /// The counters of stage `name`, created on first use.
+    #[inline]
+    pub fn stage_mut(&mut self, name: &'static str) -> &mut StageCost {
+        let i = match self.0.iter().position(|(n, _)| std::ptr::eq(*n, name) || *n == name) {
+            Some(i) => i,
+            None => {
+                self.0.push((name, StageCost::default()));
+                self.0.len() - 1
+            }
+        };
+        &mut self.0[i].1
+    }
+
+    /// Adds every stage's counters to `cost` (creating the stages it lacks).
+    pub fn add_to(&self, cost: &mut ShadingCost) {
+        for (name, stage) in &self.0 {
+            cost.stage_mut(name).add(stage);
+        }
     }
 }
 

@@ -161,13 +161,34 @@ impl AccessLog {
     /// no state: the counts are those of logging it. (Most of a pixel's texels are its
     /// neighbour's.)
     pub fn with_texture_cache(bytes: u64) -> Self {
-        let shape = SetShape::of(bytes);
-        let mask = shape.set_mask.map(|mask| mask.min(MRU_SLOTS - 1) as u32);
-        AccessLog {
-            texture_slot_mask: mask,
-            texture_mru: vec![0; mask.map_or(0, |mask| mask as usize + 1)],
-            ..AccessLog::new()
-        }
+        let mut log = AccessLog::new();
+        log.reset(bytes);
+        log
+    }
+
+    /// Empties the log for a texture cache of `bytes` ([`Self::with_texture_cache`]),
+    /// keeping its buffers: a worker's next job logs into the capacity its last one grew.
+    pub fn reset(&mut self, texture_cache_bytes: u64) {
+        let shape = SetShape::of(texture_cache_bytes);
+        self.texture_slot_mask = shape.set_mask.map(|mask| mask.min(MRU_SLOTS - 1) as u32);
+        let slots = self.texture_slot_mask.map_or(0, |mask| mask as usize + 1);
+        self.texture_mru.resize(slots, 0);
+        self.clear();
+    }
+
+    /// Moves the accesses out into a log of exactly their size, leaving this one empty with
+    /// its buffers ([`Self::reset`]): what a job hands to the memory replay.
+    pub fn take(&mut self) -> AccessLog {
+        let taken = AccessLog {
+            entries: self.entries.each_ref().map(|entries| entries.as_slice().to_vec()),
+            last: self.last,
+            segments: self.segments.clone(),
+            texture_slot_mask: self.texture_slot_mask,
+            texture_mru: Vec::new(),
+            texture_hits: self.texture_hits,
+        };
+        self.clear();
+        taken
     }
 
     /// Starts the accesses of command `command` (an index its job knows it by). A previous
@@ -316,13 +337,16 @@ impl AccessLog {
     /// logs, e.g. a measurement that is not replayed).
     pub fn clear(&mut self) {
         self.entries.iter_mut().for_each(Vec::clear);
-        self.texture_mru.fill(0);
-        *self = AccessLog {
-            entries: std::mem::take(&mut self.entries),
-            texture_slot_mask: self.texture_slot_mask,
-            texture_mru: std::mem::take(&mut self.texture_mru),
-            ..AccessLog::new()
+        self.last = [u32::MAX; STREAMS];
+        self.segments.truncate(1);
+        self.segments[0] = Segment {
+            command: 0,
+            start: [0; STREAMS],
+            texture_hits: 0,
         };
+        // Stamps carry the segment number, which starts again at 1: none may survive.
+        self.texture_mru.fill(0);
+        self.texture_hits = 0;
     }
 
     pub fn is_empty(&self) -> bool {
@@ -1106,6 +1130,52 @@ mod tests {
                 knowing.iter_mut().chain(&mut plain).for_each(AccessLog::clear);
             }
             assert_ne!(replays[0], replays[1]);
+        }
+    }
+
+    /// A log handed on with `take` holds what was logged, exactly as a log of its own would,
+    /// and the log left behind, reset, logs the next job as a fresh one does (a worker reuses
+    /// its log from job to job).
+    #[test]
+    fn a_taken_log_is_what_was_logged_and_the_rest_starts_afresh() {
+        let bytes = 16 * 1024;
+        let fill = |log: &mut AccessLog, seed: u64, commands: usize| {
+            let mut x = seed;
+            let mut next = |n: u64| {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (x >> 33) % n
+            };
+            for command in 0..commands {
+                log.begin(command);
+                for _ in 0..400 {
+                    match next(4) {
+                        0 => log.read_pair(Stream::Texture, next(40), next(40), next(6) as u32),
+                        1 => log.touch(Stream::Depth, next(50), next(2) == 0),
+                        _ => log.touch(Stream::Texture, next(40), false),
+                    }
+                }
+            }
+        };
+        let contents = |log: &AccessLog| -> Vec<(usize, usize, u64, Vec<Vec<u32>>)> {
+            log.segments()
+                .map(|(i, command)| {
+                    let streams = (0..STREAMS).map(|s| log.stream(i, s).to_vec()).collect();
+                    (i, command, log.texture_hits(i), streams)
+                })
+                .collect()
+        };
+        let mut reused = AccessLog::with_texture_cache(bytes);
+        // The last job repeats the one before it: lines its predecessor read in the same
+        // segment number are not hits in a job of their own.
+        for (seed, commands) in [(1, 5), (2, 1), (2, 1)] {
+            let mut fresh = AccessLog::with_texture_cache(bytes);
+            fill(&mut fresh, seed, commands);
+            reused.reset(bytes);
+            fill(&mut reused, seed, commands);
+            let taken = reused.take();
+            assert!(contents(&fresh).iter().any(|(_, _, hits, _)| *hits > 0));
+            assert_eq!(contents(&taken), contents(&fresh), "seed {seed}");
+            assert!(reused.is_empty());
         }
     }
 }

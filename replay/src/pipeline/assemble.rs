@@ -36,7 +36,7 @@ pub fn view<'a>(
     for out in outputs {
         raster.add(&out.raster[v]);
         cache.add(&out.cache[v]);
-        cost.add(&out.cost[v]);
+        out.cost[v].add_to(&mut cost);
         for tile in out.tiles.iter().filter(|t| t.view as usize == v) {
             raster.pixels_covered += tile.covered;
             if colors == Colors::Skipped {

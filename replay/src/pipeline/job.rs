@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3, Vec4};
-use shadetrace_formats::results::{RasterStats, ShadingCacheStats, ShadingCost, Traffic};
+use shadetrace_formats::results::{RasterStats, ShadingCacheStats, Traffic};
 use shadetrace_formats::AlphaMode;
 
 use super::blend::{merge, MergeInput};
@@ -13,7 +13,7 @@ use super::sample_buffer::{depth_passes, SampleBuffer};
 use super::{Colors, CostHeat};
 use crate::bins::TileGrid;
 use crate::command::{Command, Job, Unit};
-use crate::cost::CostHeatList;
+use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
 use crate::raster::{rasterize, sample_position};
@@ -54,7 +54,7 @@ pub struct JobOutput {
     /// The job's accesses, one segment per command (by its index in the job).
     pub log: AccessLog,
     pub raster: [RasterStats; 2],
-    pub cost: [ShadingCost; 2],
+    pub cost: [StageCosts; 2],
     pub tiles: Vec<TileImage>,
     /// Instructions per pixel id (none kept when the frame skips its heat maps) and
     /// refinement bits per pixel id, in the order the job produced them (repeats of the last
@@ -94,11 +94,11 @@ impl JobContext<'_> {
 }
 
 impl JobOutput {
-    pub fn new(simd_width: u32, heat: CostHeat) -> JobOutput {
+    pub fn new(heat: CostHeat) -> JobOutput {
         JobOutput {
             log: AccessLog::new(),
             raster: [RasterStats::default(); 2],
-            cost: [ShadingCost::new(simd_width), ShadingCost::new(simd_width)],
+            cost: Default::default(),
             tiles: Vec::new(),
             heat: CostHeatList::new(heat == CostHeat::Kept),
             refinement: Vec::new(),
@@ -130,20 +130,30 @@ impl JobOutput {
     }
 }
 
-/// Reusable per-job scratch (no allocation per unit).
+/// Reusable per-job scratch (no allocation per unit), and the log a job writes into: kept by
+/// each worker thread from one job to the next, so that a frame's thousands of jobs do not
+/// each grow them from empty. Only their capacity carries over.
 #[derive(Default)]
 struct Scratch {
     quads: Vec<(ShadeQuad, u32)>,
     shade_quads: Vec<ShadeQuad>,
     colors: Vec<[Vec4; 4]>,
+    log: AccessLog,
+}
+
+thread_local! {
+    /// The worker's [`Scratch`], taken by the job running on it (a job that a nested parallel
+    /// call starts meanwhile finds none and makes its own).
+    static SCRATCH: std::cell::Cell<Option<Box<Scratch>>> = const { std::cell::Cell::new(None) };
 }
 
 pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
     let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
-    let mut out = JobOutput::new(ctx.simd_width, ctx.heat);
-    let mut scratch = Scratch::default();
-    let mut log = AccessLog::with_texture_cache(ctx.texture_cache_bytes);
+    let mut out = JobOutput::new(ctx.heat);
+    let mut scratch = SCRATCH.take().unwrap_or_default();
+    let mut log = std::mem::take(&mut scratch.log);
+    log.reset(ctx.texture_cache_bytes);
     // Tiles whose pre-passed depth the scheme has seen.
     let mut prepared = std::collections::BTreeSet::new();
     for (index, command) in job.commands.iter().enumerate() {
@@ -174,7 +184,9 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
             }
         }
     }
-    out.log = log;
+    out.log = log.take();
+    scratch.log = log;
+    SCRATCH.set(Some(scratch));
     out.tiles = buffers.values().map(|buffer| resolve(buffer, ctx.colors)).collect();
     if ctx.keep_buffers {
         out.buffers = buffers.into_values().collect();

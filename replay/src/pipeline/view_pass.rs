@@ -85,7 +85,7 @@ pub fn run(
         SampleBuffer::new(pass.to, from.rect, samples)
     };
     let mut work = Vec::new();
-    let mut first = JobOutput::new(simd_width, heat);
+    let mut first = JobOutput::new(heat);
     let mut log = crate::memory::AccessLog::new();
     let v = pass.to as usize;
     let shared = first.account(v, &mut log, |acc| {
@@ -97,7 +97,7 @@ pub fn run(
     let chunks: Vec<(JobOutput, Vec<Vec4>)> = work
         .par_chunks(WORK_CHUNK)
         .map(|pixels| {
-            let mut out = JobOutput::new(simd_width, heat);
+            let mut out = JobOutput::new(heat);
             let mut log = crate::memory::AccessLog::new();
             let mut colors = Vec::with_capacity(pixels.len());
             out.account(v, &mut log, |acc| {

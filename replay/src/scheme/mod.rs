@@ -21,7 +21,7 @@ pub use reprojection::{HoleFill, Reprojection};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{DaisStats, ReprojectionStats, ShadingCacheStats, ShadingCost, Traffic};
 
-use crate::cost::CostHeatList;
+use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::{FrameGeometry, Triangle};
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
 use crate::pipeline::{Counters, SampleBuffer};
@@ -167,7 +167,7 @@ impl UnitContext<'_> {
 
 /// Where a scheme's spending goes.
 pub struct Accounting<'a> {
-    pub cost: &'a mut ShadingCost,
+    pub cost: &'a mut StageCosts,
     pub log: &'a mut AccessLog,
     /// Per-pixel cost heat.
     pub heat: &'a mut CostHeatList,
