@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Vec3, Vec4};
-use shadetrace_formats::results::{RasterStats, ShadingCacheStats, Traffic};
+use shadetrace_formats::results::{RasterStats, ShadingCacheStats};
 use shadetrace_formats::AlphaMode;
 
 use super::blend::{merge, MergeInput};
@@ -65,8 +65,9 @@ pub struct JobOutput {
     pub cache: [ShadingCacheStats; 2],
     /// The tile buffers themselves, kept when a view pass reads the finished view.
     pub buffers: Vec<SampleBuffer>,
-    /// DRAM bytes that bypass the caches (light lists written and read once).
-    pub traffic: Traffic,
+    /// DRAM bytes that bypass the caches (light lists written and read once), by traffic
+    /// class in the order the job first moved them: added to the frame's [`Traffic`](shadetrace_formats::results::Traffic).
+    pub traffic: Vec<(&'static str, u64)>,
     /// The scheme's named event counts ([`Accounting::count`]).
     pub counters: Counters,
 }
@@ -104,7 +105,7 @@ impl JobOutput {
             refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
-            traffic: Traffic::default(),
+            traffic: Vec::new(),
             counters: Counters::new(),
         }
     }
@@ -124,7 +125,10 @@ impl JobOutput {
                 _ => refinement.push((pixel, bits)),
             },
             cache: &mut self.cache[v],
-            traffic: &mut |class, bytes| traffic.add_bytes(class, bytes),
+            traffic: &mut |class, bytes| match traffic.iter_mut().find(|(c, _)| *c == class) {
+                Some((_, sum)) => *sum += bytes,
+                None => traffic.push((class, bytes)),
+            },
             count: &mut |name, n| *counters.entry(name).or_default() += n,
         })
     }

@@ -332,8 +332,8 @@ pub fn run_frame(
         memo,
     } = replayed;
     // Bytes the jobs moved past the caches (light lists), in job order.
-    for out in &outputs {
-        traffic.add(&out.traffic);
+    for (class, bytes) in outputs.iter().flat_map(|out| &out.traffic) {
+        traffic.add_bytes(class, *bytes);
     }
     traffic.add_bytes(INDICES, schedule.lists.index_bytes);
     if scheduler.stores_vertex_output() {
