@@ -66,7 +66,8 @@ pub struct JobOutput {
     /// The tile buffers themselves, kept when a view pass reads the finished view.
     pub buffers: Vec<SampleBuffer>,
     /// DRAM bytes that bypass the caches (light lists written and read once), by traffic
-    /// class in the order the job first moved them: added to the frame's [`Traffic`](shadetrace_formats::results::Traffic).
+    /// class in the order the job first moved them: added to the frame's
+    /// [`Traffic`](shadetrace_formats::results::Traffic).
     pub traffic: Vec<(&'static str, u64)>,
     /// The scheme's named event counts ([`Accounting::count`]).
     pub counters: Counters,
