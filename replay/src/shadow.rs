@@ -171,7 +171,13 @@ impl ShadowMap {
             base,
             levels: Vec::new(),
         };
-        let mut size = n;
+        if n > 1 {
+            let half = n.div_ceil(2);
+            hierarchy
+                .levels
+                .push((half, self.receivers_at_half(&hierarchy.base, half)));
+        }
+        let mut size = n.div_ceil(2);
         while size > 1 {
             let half = size.div_ceil(2);
             let mut next = vec![EMPTY_RANGE; half * half];
@@ -191,6 +197,39 @@ impl ShadowMap {
             size = half;
         }
         hierarchy
+    }
+
+    /// The hierarchy's half-resolution level, from the receiver bits `base`: the same fold
+    /// over each node's four texels (a texel that receives nothing leaves the range as it
+    /// is), reading the bits a word at a time. Receivers are sparse: where a word pair of
+    /// two rows has none, its 32 nodes are empty without looking at them.
+    fn receivers_at_half(&self, base: &[u64], half: usize) -> Vec<(f32, f32)> {
+        let n = self.size as usize;
+        let words = n.div_ceil(64);
+        let receives = |x: usize, y: usize| base[y * words + x / 64] >> (x % 64) & 1 != 0;
+        let mut level = vec![EMPTY_RANGE; half * half];
+        level.par_chunks_mut(half).enumerate().for_each(|(y, row)| {
+            let (y0, y1) = (2 * y, (2 * y + 1).min(n - 1));
+            // Nodes 32k.. cover texels 64k.., which word k of each row holds.
+            for (k, nodes) in row.chunks_mut(32).enumerate() {
+                if base[y0 * words + k] | base[y1 * words + k] == 0 {
+                    continue;
+                }
+                for (i, node) in nodes.iter_mut().enumerate() {
+                    let x = 32 * k + i;
+                    let (x0, x1) = (2 * x, (2 * x + 1).min(n - 1));
+                    let mut r = EMPTY_RANGE;
+                    for (sx, sy) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                        if receives(sx, sy) {
+                            let c = self.depth[sy * n + sx];
+                            r = (r.0.min(c), r.1.max(c));
+                        }
+                    }
+                    *node = r;
+                }
+            }
+        });
+        level
     }
 
     /// Fraction of the 5x5 footprint around `position` that sees the light (1 = lit).
