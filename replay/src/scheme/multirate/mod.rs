@@ -92,6 +92,10 @@ impl ShadingScheme for Multirate {
     }
 
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob> {
+        let pools = LANE_POOLS
+            .take()
+            .filter(|pools| pools.lights == lights)
+            .unwrap_or_default();
         Box::new(MultirateJob {
             config: self.0,
             lights,
@@ -101,13 +105,13 @@ impl ShadingScheme for Multirate {
             blocks: Vec::new(),
             kept_blocks: Vec::new(),
             finer_blocks: Vec::new(),
-            coarse_lanes: Vec::new(),
+            coarse_lanes: pools.coarse,
             coarse_used: 0,
-            fine_lanes: Vec::new(),
+            fine_lanes: pools.fine,
             fine_used: 0,
             order: Vec::new(),
             terms: vec![LightTerm::default(); lights],
-            spare_terms: Vec::new(),
+            spare_terms: pools.terms,
             cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
             cache_scratch: CacheScratch::default(),
             reuse_packer: SimdPacker::new(simd_width, lights),
@@ -140,6 +144,36 @@ struct CoarseLane {
     pixel: u32,
     /// Cache query and reuse-shader lanes are issued in the `reuse` stage.
     reuse: bool,
+}
+
+/// A job's lane pools and spare term buffers, kept by each worker thread from one job to the
+/// next (a frame's thousands of jobs would otherwise each grow them again, a block set per
+/// lane); reused only by a job with as many lights, and reset lane by lane as they are used.
+#[derive(Default)]
+struct LanePools {
+    lights: usize,
+    coarse: Vec<CoarseLane>,
+    fine: Vec<FineLane>,
+    terms: Vec<Vec<LightTerm>>,
+}
+
+thread_local! {
+    static LANE_POOLS: std::cell::Cell<Option<LanePools>> = const { std::cell::Cell::new(None) };
+}
+
+impl Drop for MultirateJob {
+    fn drop(&mut self) {
+        let mut terms = std::mem::take(&mut self.spare_terms);
+        terms.extend(self.blocks.drain(..).map(|b| b.terms));
+        let pools = LanePools {
+            lights: self.lights,
+            coarse: std::mem::take(&mut self.coarse_lanes),
+            fine: std::mem::take(&mut self.fine_lanes),
+            terms,
+        };
+        // A thread being torn down keeps nothing.
+        let _ = LANE_POOLS.try_with(|kept| kept.set(Some(pools)));
+    }
 }
 
 struct MultirateJob {
