@@ -118,7 +118,7 @@ impl SurfaceFrame {
         if let Some(n) = normals {
             let n = n.map(|n| n.normalize_or(Vec3::Y));
             let turn_per_pixel = (n[1] - n[0]).length().max((n[2] - n[0]).length());
-            let cell_pixels = libm::exp2f(-level as f32) / per_pixel;
+            let cell_pixels = pow2(-level) / per_pixel;
             if turn_per_pixel * cell_pixels > TEXEL_NORMAL_CHANGE {
                 level += 1;
             }
@@ -137,7 +137,7 @@ impl SurfaceFrame {
     /// nearest one.
     fn shading_bary(&self, param: Vec2, level: i32) -> Vec3 {
         let b = self.bary(param);
-        if !self.lone || libm::exp2f(-level as f32) <= self.triangle_size {
+        if !self.lone || pow2(-level) <= self.triangle_size {
             return b;
         }
         let b = b.max(Vec3::ZERO);
@@ -147,6 +147,16 @@ impl SurfaceFrame {
         } else {
             Vec3::new(1.0, 0.0, 0.0)
         }
+    }
+}
+
+/// `2^level`: the bits `libm::exp2f(level as f32)` gives (a power of two is exact), built
+/// directly where it is a normal number instead of evaluating the function (a lattice cell is
+/// looked up a few times per lane).
+fn pow2(level: i32) -> f32 {
+    match level {
+        -126..=127 => f32::from_bits(((level + 127) as u32) << 23),
+        _ => libm::exp2f(level as f32),
     }
 }
 
@@ -160,7 +170,7 @@ pub(super) struct Cell {
 
 impl Cell {
     fn containing(param: Vec2, level: i32) -> (Cell, Vec2) {
-        let scaled = param * libm::exp2f(level as f32);
+        let scaled = param * pow2(level);
         let q = scaled.floor();
         let cell = Cell {
             level,
@@ -178,14 +188,14 @@ impl Cell {
 
     /// Weights of `param` against this cell (extrapolated when it lies outside).
     fn weights_of(&self, param: Vec2) -> [f32; 4] {
-        let scaled = param * libm::exp2f(self.level as f32);
+        let scaled = param * pow2(self.level);
         Cell::weights(scaled - Vec2::new(self.qx as f32, self.qy as f32))
     }
 
     fn corner_param(&self, corner: usize) -> Vec2 {
         let (dx, dy) = CORNERS[corner];
         let (qx, qy) = (self.qx.saturating_add(dx), self.qy.saturating_add(dy));
-        Vec2::new(qx as f32, qy as f32) * libm::exp2f(-self.level as f32)
+        Vec2::new(qx as f32, qy as f32) * pow2(-self.level)
     }
 
     fn key(&self, corner: usize, surface: u64) -> CacheKey {
@@ -389,5 +399,22 @@ impl MultirateJob {
         }
         self.blocks = blocks;
         self.cache = Some((config, cache));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pow2;
+
+    /// The shortcut gives `exp2f`'s bits at every level, normal, subnormal or overflowing.
+    #[test]
+    fn pow2_is_exp2f_at_integers() {
+        for level in -160..=140 {
+            assert_eq!(
+                pow2(level).to_bits(),
+                libm::exp2f(level as f32).to_bits(),
+                "level {level}"
+            );
+        }
     }
 }
