@@ -4,6 +4,8 @@
 
 use shadetrace_formats::results::{ShadingCost, StageCost};
 
+use crate::by_name::ByName;
+
 use crate::cost_table::{Block, BlockCost};
 
 /// Stage of shading at pixel rate (every scheme's per-pixel lanes; FineInst in the tile-pair
@@ -224,29 +226,20 @@ impl CostHeatList {
     }
 }
 
-/// A job's counters per stage, by the stage's static name: found by a short scan instead of
-/// a lookup in the report's map of owned names (a few times per unit), and added to the
-/// view's [`ShadingCost`] once the job is done.
-#[derive(Clone, Debug, Default)]
-pub struct StageCosts(Vec<(&'static str, StageCost)>);
+/// A job's counters per stage (by the stage's static name), added to the view's
+/// [`ShadingCost`] once the job is done.
+pub type StageCosts = ByName<StageCost>;
 
 impl StageCosts {
     /// The counters of stage `name`, created on first use.
     #[inline]
     pub fn stage_mut(&mut self, name: &'static str) -> &mut StageCost {
-        let i = match self.0.iter().position(|(n, _)| std::ptr::eq(*n, name) || *n == name) {
-            Some(i) => i,
-            None => {
-                self.0.push((name, StageCost::default()));
-                self.0.len() - 1
-            }
-        };
-        &mut self.0[i].1
+        self.entry(name)
     }
 
     /// Adds every stage's counters to `cost` (creating the stages it lacks).
     pub fn add_to(&self, cost: &mut ShadingCost) {
-        for (name, stage) in &self.0 {
+        for (name, stage) in self.iter() {
             cost.stage_mut(name).add(stage);
         }
     }

@@ -5,6 +5,7 @@
 //! textures, shadows, shader) is shared so that numbers are comparable.
 
 pub mod bins;
+pub mod by_name;
 pub mod command;
 pub mod cost;
 pub mod cost_table;

@@ -12,6 +12,7 @@ use super::resolve::{resolve, TileImage};
 use super::sample_buffer::{depth_passes, SampleBuffer};
 use super::{Colors, CostHeat};
 use crate::bins::TileGrid;
+use crate::by_name::ByName;
 use crate::command::{Command, Job, Unit};
 use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::FrameGeometry;
@@ -66,9 +67,8 @@ pub struct JobOutput {
     /// The tile buffers themselves, kept when a view pass reads the finished view.
     pub buffers: Vec<SampleBuffer>,
     /// DRAM bytes that bypass the caches (light lists written and read once), by traffic
-    /// class in the order the job first moved them: added to the frame's
-    /// [`Traffic`](shadetrace_formats::results::Traffic).
-    pub traffic: Vec<(&'static str, u64)>,
+    /// class: added to the frame's [`Traffic`](shadetrace_formats::results::Traffic).
+    pub traffic: ByName<u64>,
     /// The scheme's named event counts ([`Accounting::count`]).
     pub counters: Counters,
 }
@@ -106,7 +106,7 @@ impl JobOutput {
             refinement: Vec::new(),
             cache: [ShadingCacheStats::default(); 2],
             buffers: Vec::new(),
-            traffic: Vec::new(),
+            traffic: ByName::default(),
             counters: Counters::new(),
         }
     }
@@ -126,10 +126,7 @@ impl JobOutput {
                 _ => refinement.push((pixel, bits)),
             },
             cache: &mut self.cache[v],
-            traffic: &mut |class, bytes| match traffic.iter_mut().find(|(c, _)| *c == class) {
-                Some((_, sum)) => *sum += bytes,
-                None => traffic.push((class, bytes)),
-            },
+            traffic: &mut |class, bytes| *traffic.entry(class) += bytes,
             count: &mut |name, n| *counters.entry(name).or_default() += n,
         })
     }

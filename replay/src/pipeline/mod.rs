@@ -332,7 +332,7 @@ pub fn run_frame(
         memo,
     } = replayed;
     // Bytes the jobs moved past the caches (light lists), in job order.
-    for (class, bytes) in outputs.iter().flat_map(|out| &out.traffic) {
+    for (class, bytes) in outputs.iter().flat_map(|out| out.traffic.iter()) {
         traffic.add_bytes(class, *bytes);
     }
     traffic.add_bytes(INDICES, schedule.lists.index_bytes);

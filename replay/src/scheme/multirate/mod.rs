@@ -163,13 +163,12 @@ thread_local! {
 
 impl Drop for MultirateJob {
     fn drop(&mut self) {
-        let mut terms = std::mem::take(&mut self.spare_terms);
-        terms.extend(self.blocks.drain(..).map(|b| b.terms));
+        self.spare_block_terms();
         let pools = LanePools {
             lights: self.lights,
             coarse: std::mem::take(&mut self.coarse_lanes),
             fine: std::mem::take(&mut self.fine_lanes),
-            terms,
+            terms: std::mem::take(&mut self.spare_terms),
         };
         // A thread being torn down keeps nothing.
         let _ = LANE_POOLS.try_with(|kept| kept.set(Some(pools)));
@@ -226,7 +225,7 @@ impl SchemeJob for MultirateJob {
     ) {
         self.coarse_used = 0;
         self.fine_used = 0;
-        self.spare_terms.extend(self.blocks.drain(..).map(|b| b.terms));
+        self.spare_block_terms();
         self.terms.resize(self.lights, LightTerm::default());
         self.sources.clear();
         match self.config.cache.map(|c| c.space) {
@@ -417,6 +416,11 @@ impl MultirateJob {
             log,
         );
         lane
+    }
+
+    /// Empties the block list, keeping its blocks' term buffers for the next blocks.
+    fn spare_block_terms(&mut self) {
+        self.spare_terms.extend(self.blocks.drain(..).map(|b| b.terms));
     }
 
     fn coarse_lane(&mut self, pixel: u32, reuse: bool) -> usize {
