@@ -277,7 +277,8 @@ impl SimdPacker {
 
     /// Adds one lane; `pixel` is its heat-map id (`u32::MAX`: none). When a group issues,
     /// its instructions are added to each of its lanes' pixels in `heat`.
-    #[inline]
+    // Once per lane of every scheme: inlined into each, whatever the caller's size.
+    #[inline(always)]
     pub fn lane(
         &mut self,
         blocks: &BlockSet,
