@@ -4,7 +4,7 @@
 //! round alike in scalar and SIMD form, and nothing here fuses a multiply-add, so every lane
 //! gets the bits the scalar shader would.
 
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use wide::f32x4;
 
 /// Four `Vec3`s, one per lane, stored by component.
@@ -38,6 +38,40 @@ impl Vec3x4 {
     pub fn to_lanes(self) -> [Vec3; 4] {
         let (x, y, z) = (self.x.to_array(), self.y.to_array(), self.z.to_array());
         std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
+    }
+
+    /// The x, y and z components of the four lanes.
+    #[inline]
+    pub fn components(self) -> [f32x4; 3] {
+        [self.x, self.y, self.z]
+    }
+
+    /// glam's scalar `m * p.extend(1.0)` of each lane `p`: the point's clip xyz and w.
+    #[inline]
+    pub fn transformed_point(self, m: &Mat4) -> (Vec3x4, f32x4) {
+        // Per row: ((x_axis x + y_axis y) + z_axis z) + w_axis * 1, glam's order.
+        let row = |c: usize| {
+            let (a, b, d, w) = (m.x_axis[c], m.y_axis[c], m.z_axis[c], m.w_axis[c]);
+            f32x4::splat(a) * self.x + f32x4::splat(b) * self.y + f32x4::splat(d) * self.z + f32x4::splat(w)
+        };
+        (
+            Vec3x4 {
+                x: row(0),
+                y: row(1),
+                z: row(2),
+            },
+            row(3),
+        )
+    }
+
+    /// Each lane divided by its own scalar (glam's `Vec3 / f32`).
+    #[inline]
+    pub fn unscale(self, s: f32x4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x / s,
+            y: self.y / s,
+            z: self.z / s,
+        }
     }
 
     /// Each lane times its own scalar (glam's `Vec3 * f32`).
@@ -140,6 +174,10 @@ mod tests {
             let difference = (va - vb).to_lanes();
             let scaled = va.scale(vs).to_lanes();
             let flipped = va.negate_where_negative(vs, enabled).to_lanes();
+            let unscaled = va.unscale(vs).to_lanes();
+            let m = Mat4::from_cols_array(&std::array::from_fn(|i| [a[0], a[1], a[2], a[3], b[0], b[1]][i % 6].to_array()[i % 3]));
+            let (clip, w) = va.transformed_point(&m);
+            let (clip, w) = (clip.to_lanes(), w.to_array());
             for l in 0..4 {
                 prop_assert_eq!(bits(normalized[l]), bits(a[l].normalize_or(b[l])));
                 prop_assert_eq!(dot[l].to_bits(), a[l].dot(b[l]).to_bits());
@@ -147,6 +185,13 @@ mod tests {
                 prop_assert_eq!(bits(scaled[l]), bits(a[l] * s[l]));
                 let flip = enabled && s[l] < 0.0;
                 prop_assert_eq!(bits(flipped[l]), bits(if flip { -a[l] } else { a[l] }));
+                prop_assert_eq!(bits(unscaled[l]), bits(a[l] / s[l]));
+                // A NaN's sign and payload follow the order the compiler gives an addition's
+                // operands, which nothing reads: any NaN matches any NaN.
+                let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+                let scalar = m * a[l].extend(1.0);
+                let quad = clip[l].extend(w[l]);
+                prop_assert!((0..4).all(|c| same(quad[c], scalar[c])), "{quad:?} against {scalar:?}");
             }
         }
     }

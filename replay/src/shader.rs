@@ -23,8 +23,9 @@ use crate::cost::{BlockSet, LightBlocks};
 use crate::cost_table::Block;
 use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
-use crate::shadow::{ReceiverHierarchy, ShadowMap};
+use crate::shadow::{PcfFootprint, ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
+use wide::f32x4;
 
 /// Constant ambient term so unlit sides are not black.
 const AMBIENT: f32 = 0.06;
@@ -113,21 +114,47 @@ pub struct LightingInputs {
 
 /// A point's unit normal (mapped, and flipped to the side seen) and reflection vector:
 /// what every light's term at the point starts from.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct PointDirections {
     n: Vec3,
     r: Vec3,
 }
 
-/// What every light's term at one point shares: the inputs, the (possibly mapped and
-/// flipped) normal, the reflection vector and the Phong parameters there.
+/// What every light's term at one point shares: its position, its (possibly mapped and
+/// flipped) normal, its reflection vector and the Phong parameters there.
 #[derive(Clone, Copy)]
-struct PointInputs<'a> {
-    inp: &'a LightingInputs,
+struct PointInputs {
+    position: Vec3,
     n: Vec3,
     r: Vec3,
     exponent: f32,
     strength: f32,
+}
+
+/// What a directional light's term at a point starts from: the cosines of its direction
+/// with the normal and the reflection vector, and the point's Phong parameters.
+struct Directional {
+    n_dot_l: f32,
+    r_dot_l: f32,
+    exponent: f32,
+    strength: f32,
+}
+
+/// The most lights a [`QuadLighting`] holds; a scene with more lights its quads lane by lane.
+const QUAD_LIGHTS: usize = 4;
+
+/// The arithmetic of a quad's lighting, done four lanes at a time
+/// ([`ShaderEnv::quad_lighting`]): each lane's directions, and per directional light each
+/// lane's cosines and shadow-map footprint (None outside the map or where the light casts no
+/// shadow). What reads memory or records blocks is left to each lane, in lane order. Kept by
+/// a job from quad to quad.
+#[derive(Default)]
+pub struct QuadLighting {
+    positions: [Vec3; 4],
+    directions: [PointDirections; 4],
+    n_dot_l: [[f32; 4]; QUAD_LIGHTS],
+    r_dot_l: [[f32; 4]; QUAD_LIGHTS],
+    footprints: [[Option<PcfFootprint>; 4]; QUAD_LIGHTS],
 }
 
 /// The fine part of a point's colour: albedo, and what the occlusion and emissive maps add.
@@ -178,30 +205,7 @@ impl ShaderEnv<'_> {
     /// Coarse-able lighting (radiance reaching the eye per unit albedo): every effect
     /// evaluated here, combined.
     pub fn lighting(&self, inp: &LightingInputs, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec3 {
-        self.lighting_directed(inp, None, None, blocks, log)
-    }
-
-    /// The directions at the four lanes of a quad (one triangle, so one material), computed
-    /// together: for [`Self::lighting_directed`]. None where the material has a normal map,
-    /// which the lanes sample one by one, in their order among their other reads.
-    pub fn quad_directions(
-        &self,
-        material: u32,
-        eye: Vec3,
-        positions: &[Vec3; 4],
-        normals: &[Vec3; 4],
-    ) -> Option<[PointDirections; 4]> {
-        if self.maps.of(material).normal.is_some() {
-            return None;
-        }
-        let double_sided = self.materials[material as usize].double_sided;
-        let v = (Vec3x4::splat(eye) - Vec3x4::from_lanes(positions)).normalize_or(Vec3x4::splat(Vec3::Z));
-        let n = Vec3x4::from_lanes(normals).normalize_or(Vec3x4::splat(Vec3::Y));
-        let n = n.negate_where_negative(n.dot(v), double_sided);
-        let twice = n.dot(v) * wide::f32x4::splat(2.0);
-        let r = (n.scale(twice) - v).normalize_or(n);
-        let (n, r) = (n.to_lanes(), r.to_lanes());
-        Some(std::array::from_fn(|l| PointDirections { n: n[l], r: r[l] }))
+        self.lighting_of(inp, None, blocks, log)
     }
 
     /// [`ShaderEnv::lighting`] of the lights in `list` (indices, ascending) only: a culled
@@ -214,15 +218,13 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) -> Vec3 {
-        self.lighting_directed(inp, None, Some(list), blocks, log)
+        self.lighting_of(inp, Some(list), blocks, log)
     }
 
-    /// [`Self::lighting`] (of the lights in `list` when given, as
-    /// [`Self::lighting_listed`]) at a point, with its directions when its quad computed them.
-    pub fn lighting_directed(
+    /// [`Self::lighting`], of the lights in `list` when given.
+    fn lighting_of(
         &self,
         inp: &LightingInputs,
-        directions: Option<&PointDirections>,
         list: Option<&[u32]>,
         blocks: &mut BlockSet,
         log: &mut AccessLog,
@@ -230,7 +232,7 @@ impl ShaderEnv<'_> {
         let mut terms = [LightTerm::default(); 8];
         if self.lights.len() <= terms.len() {
             let terms = &mut terms[..self.lights.len()];
-            self.light_terms_of(inp, directions, Effects::all(), list, terms, blocks, log);
+            self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
             self.combine(terms)
         } else {
             // Many lights: a per-thread buffer, cleared per call (no allocation per pixel).
@@ -240,9 +242,128 @@ impl ShaderEnv<'_> {
             TERMS.with_borrow_mut(|terms| {
                 terms.clear();
                 terms.resize(self.lights.len(), LightTerm::default());
-                self.light_terms_of(inp, directions, Effects::all(), list, terms, blocks, log);
+                self.light_terms_of(inp, Effects::all(), list, terms, blocks, log);
                 self.combine(terms)
             })
+        }
+    }
+
+    /// The arithmetic of [`Self::lighting`] at the four lanes of a quad (one triangle, so one
+    /// material), four lanes at a time, into `quad`; each lane then finishes with
+    /// [`Self::lane_lighting`]. False (and `quad` not for use) where the material has a normal
+    /// map, which the lanes sample one by one, in their order among their other reads, or
+    /// with more lights than a quad holds.
+    pub fn quad_lighting(
+        &self,
+        material: u32,
+        eye: Vec3,
+        positions: &[Vec3; 4],
+        normals: &[Vec3; 4],
+        quad: &mut QuadLighting,
+    ) -> bool {
+        if self.maps.of(material).normal.is_some() || self.lights.len() > QUAD_LIGHTS {
+            return false;
+        }
+        let double_sided = self.materials[material as usize].double_sided;
+        let p = Vec3x4::from_lanes(positions);
+        let v = (Vec3x4::splat(eye) - p).normalize_or(Vec3x4::splat(Vec3::Z));
+        let n = Vec3x4::from_lanes(normals).normalize_or(Vec3x4::splat(Vec3::Y));
+        let n = n.negate_where_negative(n.dot(v), double_sided);
+        let twice = n.dot(v) * f32x4::splat(2.0);
+        let r = (n.scale(twice) - v).normalize_or(n);
+        quad.positions = *positions;
+        let (n_lanes, r_lanes) = (n.to_lanes(), r.to_lanes());
+        quad.directions = std::array::from_fn(|l| PointDirections {
+            n: n_lanes[l],
+            r: r_lanes[l],
+        });
+        // Only the directional lights' entries are written, and only they are read.
+        for (k, light) in self.lights.iter().enumerate() {
+            if let LightKind::Directional { .. } = light.kind {
+                let l = Vec3x4::splat(light.axis);
+                let n_dot_l = n.dot(l);
+                quad.n_dot_l[k] = n_dot_l.to_array();
+                quad.r_dot_l[k] = r.dot(l).to_array();
+                quad.footprints[k] = match (light.shadowed, self.shadow) {
+                    (true, Some(map)) => map.quad_footprints(p, n_dot_l),
+                    _ => [None; 4],
+                };
+            }
+        }
+        true
+    }
+
+    /// Lane `l`'s [`Self::lighting`] (of the lights in `list` when given, as
+    /// [`Self::lighting_listed`]) from its quad's arithmetic: the lane's reads, blocks,
+    /// Phong powers and local lights, as the lane's own shader makes them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn lane_lighting(
+        &self,
+        quad: &QuadLighting,
+        l: usize,
+        material: u32,
+        surface: &SurfacePoint,
+        list: Option<&[u32]>,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Vec3 {
+        blocks.take(Block::CoarseSetup);
+        let (exponent, strength) = self.phong_parameters(material, surface, blocks, log);
+        let mut terms = [LightTerm::default(); QUAD_LIGHTS];
+        let terms = &mut terms[..self.lights.len()];
+        match list {
+            None => {
+                for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
+                    self.lane_term(quad, l, k, (exponent, strength), term, flags, log);
+                }
+            }
+            Some(list) => {
+                for &k in list {
+                    let k = k as usize;
+                    let (term, flags) = (&mut terms[k], &mut blocks.lights[k]);
+                    self.lane_term(quad, l, k, (exponent, strength), term, flags, log);
+                }
+            }
+        }
+        self.combine(terms)
+    }
+
+    /// Light `k`'s term at lane `l` of a quad: [`Self::light_term`] from the quad's arithmetic.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn lane_term(
+        &self,
+        quad: &QuadLighting,
+        l: usize,
+        k: usize,
+        (exponent, strength): (f32, f32),
+        term: &mut LightTerm,
+        flags: &mut LightBlocks,
+        log: &mut AccessLog,
+    ) {
+        let light = &self.lights[k];
+        match light.kind {
+            LightKind::Directional { .. } => {
+                let shading = Directional {
+                    n_dot_l: quad.n_dot_l[k][l],
+                    r_dot_l: quad.r_dot_l[k][l],
+                    exponent,
+                    strength,
+                };
+                let footprint = |_: &ShadowMap| quad.footprints[k][l];
+                self.directional_term(light, &shading, footprint, Effects::all(), term, flags, log)
+            }
+            LightKind::Point { .. } | LightKind::Spot { .. } => {
+                let PointDirections { n, r } = quad.directions[l];
+                let point = PointInputs {
+                    position: quad.positions[l],
+                    n,
+                    r,
+                    exponent,
+                    strength,
+                };
+                local_term(light, &point, Effects::all(), term, flags)
+            }
         }
     }
 
@@ -256,17 +377,15 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) {
-        self.light_terms_of(inp, None, effects, None, terms, blocks, log)
+        self.light_terms_of(inp, effects, None, terms, blocks, log)
     }
 
     /// [`ShaderEnv::light_terms`] of the lights in `list` only (every light when None); the
-    /// terms of the others are left untouched. `directions`, when given, are the point's
-    /// own, computed with its quad's.
-    #[allow(clippy::too_many_arguments)]
+    /// terms of the others are left untouched.
+    #[inline(always)]
     fn light_terms_of(
         &self,
         inp: &LightingInputs,
-        directions: Option<&PointDirections>,
         effects: Effects,
         list: Option<&[u32]>,
         terms: &mut [LightTerm],
@@ -275,21 +394,10 @@ impl ShaderEnv<'_> {
     ) {
         blocks.take(Block::CoarseSetup);
         let material = &self.materials[inp.material as usize];
-        let maps = self.maps.of(inp.material);
-        let PointDirections { n, r } = match directions {
-            Some(&directions) => directions,
-            None => self.directions(inp, material.double_sided, blocks, log),
-        };
-        let (exponent, strength) = match maps.metallic_roughness {
-            None => (material.specular_exponent, material.specular_strength),
-            Some((texture, roughness, metallic)) => {
-                blocks.take(Block::MetallicRoughnessMap);
-                let texel = self.sample_map(texture, &inp.surface, log);
-                phong_from_metallic_roughness(roughness * texel.y, metallic * texel.z)
-            }
-        };
+        let PointDirections { n, r } = self.directions(inp, material.double_sided, blocks, log);
+        let (exponent, strength) = self.phong_parameters(inp.material, &inp.surface, blocks, log);
         let point = PointInputs {
-            inp,
+            position: inp.position,
             n,
             r,
             exponent,
@@ -310,7 +418,31 @@ impl ShaderEnv<'_> {
         }
     }
 
+    /// The Phong exponent and weight at a point: its material's, or from its
+    /// metallic-roughness map.
+    #[inline(always)]
+    fn phong_parameters(
+        &self,
+        material: u32,
+        at: &SurfacePoint,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> (f32, f32) {
+        match self.maps.of(material).metallic_roughness {
+            None => {
+                let material = &self.materials[material as usize];
+                (material.specular_exponent, material.specular_strength)
+            }
+            Some((texture, roughness, metallic)) => {
+                blocks.take(Block::MetallicRoughnessMap);
+                let texel = self.sample_map(texture, at, log);
+                phong_from_metallic_roughness(roughness * texel.y, metallic * texel.z)
+            }
+        }
+    }
+
     /// Light `k`'s term at one point.
+    #[inline(always)]
     fn light_term(
         &self,
         k: usize,
@@ -320,85 +452,66 @@ impl ShaderEnv<'_> {
         flags: &mut LightBlocks,
         log: &mut AccessLog,
     ) {
-        let PointInputs {
-            inp,
-            n,
-            r,
-            exponent,
-            strength,
-        } = *point;
         let light = &self.lights[k];
         match light.kind {
             LightKind::Directional { .. } => {
                 let l = light.axis;
-                let n_dot_l = n.dot(l);
-                let lit = n_dot_l > 0.0;
-                if effects.contains(Effects::DIFFUSE) {
-                    *flags |= LightBlocks::DIFFUSE;
-                    term.diffuse = if lit { n_dot_l } else { 0.0 };
-                    if !light.shadowed {
-                        term.scale = 1.0;
-                    }
-                }
-                // The specular and shadow effects run on every fragment, facing the
-                // light or not, as in He et al.'s shaders (Fig. 9: no test of N·L), so a
-                // pixel costs the same on either side; what they add stays zero on the
-                // unlit side.
-                if effects.contains(Effects::SPECULAR) {
-                    *flags |= LightBlocks::SPECULAR;
-                    term.specular = if lit { strength * phong(r.dot(l), exponent) } else { 0.0 };
-                }
-                if effects.contains(Effects::SHADOW) && light.shadowed {
-                    term.scale = match self.shadow {
-                        Some(map) => {
-                            *flags |= LightBlocks::SHADOW;
-                            map.pcf(inp.position, n_dot_l, log)
-                        }
-                        None => 1.0,
-                    };
-                }
-            }
-            LightKind::Point { position, range } | LightKind::Spot { position, range, .. } => {
-                if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
-                    return;
-                }
-                *flags |= LightBlocks::TEST;
-                let to_light = position - inp.position;
-                let d2 = to_light.length_squared();
-                let window = match range {
-                    Some(r) if r > 0.0 => {
-                        let x = d2 / (r * r);
-                        ((1.0 - x * x).max(0.0)).powi(2)
-                    }
-                    _ => 1.0,
+                let n_dot_l = point.n.dot(l);
+                let shading = Directional {
+                    n_dot_l,
+                    r_dot_l: point.r.dot(l),
+                    exponent: point.exponent,
+                    strength: point.strength,
                 };
-                if window <= 0.0 {
-                    *term = LightTerm::default();
-                    return;
-                }
-                *flags |= LightBlocks::LOCAL;
-                let l = to_light.normalize_or(Vec3::Y);
-                let n_dot_l = n.dot(l).max(0.0);
-                if effects.contains(Effects::DIFFUSE) {
-                    let cone = match light.kind {
-                        LightKind::Spot { .. } => {
-                            let cos = (-l).dot(light.axis);
-                            let (ci, co) = light.cone_cosines;
-                            ((cos - co) / (ci - co).max(1e-4)).clamp(0.0, 1.0)
-                        }
-                        _ => 1.0,
-                    };
-                    term.scale = window * cone / d2.max(1e-4);
-                    term.diffuse = n_dot_l;
-                }
-                if effects.contains(Effects::SPECULAR) {
-                    term.specular = if n_dot_l > 0.0 {
-                        strength * phong(r.dot(l), exponent)
-                    } else {
-                        0.0
-                    };
-                }
+                let footprint = |map: &ShadowMap| map.footprint(point.position, n_dot_l);
+                self.directional_term(light, &shading, footprint, effects, term, flags, log)
             }
+            LightKind::Point { .. } | LightKind::Spot { .. } => local_term(light, point, effects, term, flags),
+        }
+    }
+
+    /// A directional light's term: `footprint` gives the point's PCF footprint in the shadow
+    /// map, asked only where the light is shadowed.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn directional_term(
+        &self,
+        light: &ShadingLight,
+        shading: &Directional,
+        footprint: impl FnOnce(&ShadowMap) -> Option<PcfFootprint>,
+        effects: Effects,
+        term: &mut LightTerm,
+        flags: &mut LightBlocks,
+        log: &mut AccessLog,
+    ) {
+        let n_dot_l = shading.n_dot_l;
+        let lit = n_dot_l > 0.0;
+        if effects.contains(Effects::DIFFUSE) {
+            *flags |= LightBlocks::DIFFUSE;
+            term.diffuse = if lit { n_dot_l } else { 0.0 };
+            if !light.shadowed {
+                term.scale = 1.0;
+            }
+        }
+        // The specular and shadow effects run on every fragment, facing the light or not,
+        // as in He et al.'s shaders (Fig. 9: no test of N·L), so a pixel costs the same on
+        // either side; what they add stays zero on the unlit side.
+        if effects.contains(Effects::SPECULAR) {
+            *flags |= LightBlocks::SPECULAR;
+            term.specular = if lit {
+                shading.strength * phong(shading.r_dot_l, shading.exponent)
+            } else {
+                0.0
+            };
+        }
+        if effects.contains(Effects::SHADOW) && light.shadowed {
+            term.scale = match self.shadow {
+                Some(map) => {
+                    *flags |= LightBlocks::SHADOW;
+                    footprint(map).map_or(1.0, |footprint| map.filter(footprint, log))
+                }
+                None => 1.0,
+            };
         }
     }
 
@@ -513,6 +626,66 @@ impl ShaderEnv<'_> {
     }
 }
 
+/// A point or spot light's term (distance window, cone, Lambert and Phong).
+#[inline(always)]
+fn local_term(
+    light: &ShadingLight,
+    point: &PointInputs,
+    effects: Effects,
+    term: &mut LightTerm,
+    flags: &mut LightBlocks,
+) {
+    let (LightKind::Point { position, range } | LightKind::Spot { position, range, .. }) = light.kind else {
+        return;
+    };
+    let PointInputs {
+        n,
+        r,
+        exponent,
+        strength,
+        ..
+    } = *point;
+    if !effects.intersects(Effects::DIFFUSE | Effects::SPECULAR) {
+        return;
+    }
+    *flags |= LightBlocks::TEST;
+    let to_light = position - point.position;
+    let d2 = to_light.length_squared();
+    let window = match range {
+        Some(r) if r > 0.0 => {
+            let x = d2 / (r * r);
+            ((1.0 - x * x).max(0.0)).powi(2)
+        }
+        _ => 1.0,
+    };
+    if window <= 0.0 {
+        *term = LightTerm::default();
+        return;
+    }
+    *flags |= LightBlocks::LOCAL;
+    let l = to_light.normalize_or(Vec3::Y);
+    let n_dot_l = n.dot(l).max(0.0);
+    if effects.contains(Effects::DIFFUSE) {
+        let cone = match light.kind {
+            LightKind::Spot { .. } => {
+                let cos = (-l).dot(light.axis);
+                let (ci, co) = light.cone_cosines;
+                ((cos - co) / (ci - co).max(1e-4)).clamp(0.0, 1.0)
+            }
+            _ => 1.0,
+        };
+        term.scale = window * cone / d2.max(1e-4);
+        term.diffuse = n_dot_l;
+    }
+    if effects.contains(Effects::SPECULAR) {
+        term.specular = if n_dot_l > 0.0 {
+            strength * phong(r.dot(l), exponent)
+        } else {
+            0.0
+        };
+    }
+}
+
 /// `(R·L)^n` for the lit side, 0 behind.
 fn phong(r_dot_l: f32, exponent: f32) -> f32 {
     if r_dot_l <= 0.0 {
@@ -566,14 +739,17 @@ mod tests {
     }
 
     proptest! {
-        /// A quad's directions are each lane's own, bit for bit: the two are written apart
-        /// (four lanes in registers, one lane in glam) and must not drift.
+        /// A quad's lighting, its arithmetic four lanes at a time and the rest lane by lane,
+        /// gives each lane the bits, the blocks and the shadow-map reads of the lane's own
+        /// lighting: the two are written apart and must not drift. Every kind of light, with
+        /// and without a light list.
         #[test]
-        fn quad_directions_are_each_lanes_own(
+        fn quad_lighting_is_each_lanes_own(
             eye in vec3(),
             positions in prop::array::uniform4(vec3()),
             normals in prop::array::uniform4(vec3()),
             double_sided in any::<bool>(),
+            listed in any::<bool>(),
         ) {
             let material = Material {
                 name: String::new(),
@@ -584,29 +760,64 @@ mod tests {
                 alpha: AlphaMode::Opaque,
                 double_sided,
             };
+            let lights = [
+                ShadingLight::new(LightKind::Directional { direction: Vec3::new(0.3, -1.0, 0.2) }, Vec3::ONE, true),
+                ShadingLight::new(LightKind::Directional { direction: Vec3::new(-0.5, -0.2, 0.7) }, Vec3::splat(0.5), false),
+                ShadingLight::new(
+                    LightKind::Point { position: Vec3::new(1.0, 2.0, 0.5), range: Some(8.0) },
+                    Vec3::splat(3.0),
+                    false,
+                ),
+                ShadingLight::new(
+                    LightKind::Spot {
+                        position: Vec3::new(-2.0, 3.0, 1.0),
+                        direction: Vec3::new(0.2, -1.0, 0.1),
+                        inner_cone: 0.3,
+                        outer_cone: 0.6,
+                        range: None,
+                    },
+                    Vec3::splat(2.0),
+                    false,
+                ),
+            ];
+            // The map covers the points' range, so footprints fall inside it and at its edges.
+            let mut map = crate::shadow::test_map(64);
+            map.view_projection = glam::Mat4::from_scale(Vec3::splat(0.1));
             let maps = SurfaceMaps::default();
             let env = ShaderEnv {
                 materials: std::slice::from_ref(&material),
                 textures: &[],
-                lights: &[],
-                shadow: None,
+                lights: &lights,
+                shadow: Some(&map),
                 receivers: None,
                 maps: &maps,
             };
-            let quad = env.quad_directions(0, eye, &positions, &normals).unwrap();
+            let list = [0u32, 2];
+            let list = listed.then_some(&list[..]);
+            let mut quad = QuadLighting::default();
+            prop_assert!(env.quad_lighting(0, eye, &positions, &normals, &mut quad));
+            let (mut quad_log, mut lane_log) = (AccessLog::new(), AccessLog::new());
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
             for l in 0..4 {
+                let (mut quad_blocks, mut lane_blocks) = (BlockSet::new(lights.len()), BlockSet::new(lights.len()));
+                let surface = SurfacePoint::default();
+                let got = env.lane_lighting(&quad, l, 0, &surface, list, &mut quad_blocks, &mut quad_log);
                 let inputs = LightingInputs {
                     position: positions[l],
                     normal: normals[l],
                     eye,
                     material: 0,
-                    surface: SurfacePoint::default(),
+                    surface,
                 };
-                let lane = env.directions(&inputs, double_sided, &mut BlockSet::new(0), &mut AccessLog::new());
-                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-                prop_assert_eq!(bits(quad[l].n), bits(lane.n));
-                prop_assert_eq!(bits(quad[l].r), bits(lane.r));
+                let want = match list {
+                    Some(list) => env.lighting_listed(&inputs, list, &mut lane_blocks, &mut lane_log),
+                    None => env.lighting(&inputs, &mut lane_blocks, &mut lane_log),
+                };
+                prop_assert_eq!(bits(got), bits(want));
+                prop_assert_eq!(&quad_blocks, &lane_blocks);
             }
+            let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
+            prop_assert_eq!(reads(&quad_log), reads(&lane_log));
         }
     }
 }

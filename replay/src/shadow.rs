@@ -8,8 +8,10 @@ use glam::{Mat4, Vec3, Vec4Swizzles};
 use rayon::prelude::*;
 use shadetrace_formats::results::ShadowPassStats;
 use shadetrace_formats::Aabb;
+use wide::f32x4;
 
 use crate::geometry::FrameGeometry;
+use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, Stream};
 use crate::raster::{rasterize, sample_offsets, Rect};
 use crate::texture::{level_lines, BLOCK};
@@ -22,6 +24,19 @@ const PCF_RADIUS: i32 = 2;
 const PCF_TAPS: usize = 2 * PCF_RADIUS as usize + 1;
 // A footprint's rows span at most two block rows (`ShadowMap::pcf`).
 const _: () = assert!(PCF_TAPS <= BLOCK as usize);
+
+/// A small map of blocks at several depths, for tests.
+#[cfg(test)]
+pub(crate) use tests::map_of as test_map;
+
+/// Where a receiver's 5x5 PCF footprint lies: its centre texel, and the biased depth its taps
+/// are compared with.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PcfFootprint {
+    tx: i32,
+    ty: i32,
+    receiver: f32,
+}
 
 pub struct ShadowMap {
     pub size: u32,
@@ -234,11 +249,22 @@ impl ShadowMap {
 
     /// Fraction of the 5x5 footprint around `position` that sees the light (1 = lit).
     /// Receivers outside the map are lit.
+    #[inline(always)]
     pub fn pcf(&self, position: Vec3, n_dot_l: f32, log: &mut AccessLog) -> f32 {
+        match self.footprint(position, n_dot_l) {
+            Some(footprint) => self.filter(footprint, log),
+            None => 1.0,
+        }
+    }
+
+    /// Where the footprint of a receiver at `position` lies, its normal at cosine `n_dot_l`
+    /// to the light; None outside the map.
+    #[inline(always)]
+    pub fn footprint(&self, position: Vec3, n_dot_l: f32) -> Option<PcfFootprint> {
         let clip = self.view_projection * position.extend(1.0);
         let p = clip.xyz() / clip.w;
         if !p.is_finite() || p.x.abs() > 1.0 || p.y.abs() > 1.0 || p.z > 1.0 {
-            return 1.0;
+            return None;
         }
         let size = self.size as f32;
         // Both are at least +0 (|p.x|, |p.y| <= 1), where truncation is the floor: no call to
@@ -248,9 +274,46 @@ impl ShadowMap {
         // Slope-scaled bias: steeper receivers need more.
         let slope = (1.0 - n_dot_l * n_dot_l).max(0.0).sqrt() / n_dot_l.max(0.05);
         let bias = self.texel_depth * (1.5 + 2.0 * slope.min(10.0));
+        Some(PcfFootprint {
+            tx,
+            ty,
+            receiver: p.z - bias,
+        })
+    }
+
+    /// [`Self::footprint`] of a quad's four receivers, four lanes at a time: the same
+    /// operations in the same order, so the same bits.
+    #[inline]
+    pub fn quad_footprints(&self, positions: Vec3x4, n_dot_l: f32x4) -> [Option<PcfFootprint>; 4] {
+        let (clip, w) = positions.transformed_point(&self.view_projection);
+        let [x, y, z] = clip.unscale(w).components();
+        let one = f32x4::ONE;
+        let finite = x.is_finite() & y.is_finite() & z.is_finite();
+        let inside = finite & x.abs().simd_le(one) & y.abs().simd_le(one) & z.simd_le(one);
+        let (half, size) = (f32x4::splat(0.5), f32x4::splat(self.size as f32));
+        // Truncated as `as i32` truncates (only lanes inside the map are kept).
+        let tx = ((x * half + half) * size).trunc_int().to_array();
+        let ty = ((half - y * half) * size).trunc_int().to_array();
+        let slope = (one - n_dot_l * n_dot_l).max(f32x4::ZERO).sqrt() / n_dot_l.max(f32x4::splat(0.05));
+        let bias =
+            f32x4::splat(self.texel_depth) * (f32x4::splat(1.5) + f32x4::splat(2.0) * slope.min(f32x4::splat(10.0)));
+        let receiver = (z - bias).to_array();
+        let inside = inside.to_bitmask();
+        std::array::from_fn(|l| {
+            (inside & 1 << l != 0).then(|| PcfFootprint {
+                tx: tx[l],
+                ty: ty[l],
+                receiver: receiver[l],
+            })
+        })
+    }
+
+    /// Fraction of the footprint's taps that see the light, logging the texel lines they read.
+    #[inline(always)]
+    pub fn filter(&self, footprint: PcfFootprint, log: &mut AccessLog) -> f32 {
+        let PcfFootprint { tx, ty, receiver } = footprint;
         let blocks_x = self.size.div_ceil(BLOCK);
         let last = self.size as i32 - 1;
-        let receiver = p.z - bias;
         let mut lit = 0u32;
         if tx - PCF_RADIUS >= 0 && tx + PCF_RADIUS <= last {
             // The usual case, the footprint inside the map in x: each row's taps are one run
@@ -440,7 +503,7 @@ mod tests {
         map_of(64)
     }
 
-    fn map_of(size: u32) -> ShadowMap {
+    pub(crate) fn map_of(size: u32) -> ShadowMap {
         let depth = (0..size * size)
             .map(|i| {
                 let (x, y) = (i % size, i / size);
@@ -461,6 +524,31 @@ mod tests {
             texel_depth: 1.0 / size as f32,
             stats: ShadowPassStats::default(),
             receivers: Mutex::new(Vec::new()),
+        }
+    }
+
+    proptest! {
+        /// A quad's footprints are each lane's own, bit for bit: the two are written apart
+        /// (four lanes in registers, one lane in glam) and must not drift. Positions reach past
+        /// the map, the projection divides by w, and the cosines include the extremes.
+        #[test]
+        fn quad_footprints_are_each_lanes_own(
+            positions in prop::array::uniform4((-1.5f32..1.5, -1.5f32..1.5, -0.5f32..1.5)),
+            n_dot_l in prop::array::uniform4(prop_oneof![
+                -1.0f32..1.0, Just(0.0f32), Just(-0.0f32), Just(f32::NAN), Just(f32::INFINITY)
+            ]),
+            tilt in -0.5f32..0.5,
+        ) {
+            let mut map = map();
+            map.view_projection = Mat4::from_cols_array(&[
+                1.0, 0.0, 0.0, 0.0, tilt, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, tilt, 0.0, 0.0, 0.0, 1.0,
+            ]);
+            let positions = positions.map(|(x, y, z)| Vec3::new(x, y, z));
+            let quad = map.quad_footprints(Vec3x4::from_lanes(&positions), f32x4::new(n_dot_l));
+            let bits = |f: Option<PcfFootprint>| f.map(|f| (f.tx, f.ty, f.receiver.to_bits()));
+            for l in 0..4 {
+                prop_assert_eq!(bits(quad[l]), bits(map.footprint(positions[l], n_dot_l[l])));
+            }
         }
     }
 

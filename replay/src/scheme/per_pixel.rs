@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, LightingInputs};
+use crate::shader::{compose, LightingInputs, QuadLighting};
 
 pub struct PerPixel;
 
@@ -57,6 +57,8 @@ struct TileLists {
 struct PerPixelJob {
     packer: SimdPacker,
     blocks: BlockSet,
+    /// The quad being shaded, its arithmetic done four lanes at a time.
+    quad: QuadLighting,
     /// `forward+`'s lists; None for `per-pixel`.
     lists: Option<TileLists>,
 }
@@ -66,6 +68,7 @@ impl PerPixelJob {
         PerPixelJob {
             packer: SimdPacker::new(simd_width, lights),
             blocks: BlockSet::new(lights),
+            quad: QuadLighting::default(),
             lists,
         }
     }
@@ -86,9 +89,10 @@ impl SchemeJob for PerPixelJob {
             let duv_dx = lanes[1].uv - lanes[0].uv;
             let duv_dy = lanes[2].uv - lanes[0].uv;
             let positions = lanes.map(|lane| lane.position);
-            let directions = ctx
+            let normals = lanes.map(|lane| lane.normal);
+            let quad_lit = ctx
                 .env
-                .quad_directions(material, ctx.eye, &positions, &lanes.map(|lane| lane.normal));
+                .quad_lighting(material, ctx.eye, &positions, &normals, &mut self.quad);
             let list = self.lists.as_ref().map(|tiles| {
                 let key = (ctx.view, quad.x / TILED_TILE, quad.y / TILED_TILE);
                 tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
@@ -98,17 +102,23 @@ impl SchemeJob for PerPixelJob {
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 self.blocks.clear();
                 let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
-                let inputs = LightingInputs {
-                    position: lane.position,
-                    normal: lane.normal,
-                    eye: ctx.eye,
-                    material,
-                    surface: at,
+                let (blocks, log) = (&mut self.blocks, &mut *acc.log);
+                let lighting = match quad_lit {
+                    true => ctx.env.lane_lighting(&self.quad, l, material, &at, list, blocks, log),
+                    false => {
+                        let inputs = LightingInputs {
+                            position: lane.position,
+                            normal: lane.normal,
+                            eye: ctx.eye,
+                            material,
+                            surface: at,
+                        };
+                        match list {
+                            Some(list) => ctx.env.lighting_listed(&inputs, list, blocks, log),
+                            None => ctx.env.lighting(&inputs, blocks, log),
+                        }
+                    }
                 };
-                let directions = directions.as_ref().map(|d| &d[l]);
-                let lighting = ctx
-                    .env
-                    .lighting_directed(&inputs, directions, list, &mut self.blocks, acc.log);
                 let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
                 out[l] = compose(&surface, lighting, &mut self.blocks);
                 let useful = quad.lanes & (1 << l) != 0;
