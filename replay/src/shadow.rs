@@ -349,18 +349,16 @@ impl ShadowMap {
             // The rows' accesses, per run of rows in one block row: its line in b0 (repeats
             // the log drops), or alternating between b0's and b1's, which the log counts as
             // one repeated pair.
-            for (by, run) in [(by0, split), (by1, PCF_TAPS as u32 - split)] {
-                if run == 0 {
-                    continue;
-                }
+            let runs = [(by0, split), (by1, PCF_TAPS as u32 - split)].map(|(by, run)| {
                 let row_line = self.base_line + u64::from(by * blocks_x);
-                if b1 != b0 {
-                    let (a, b) = (row_line + u64::from(b0), row_line + u64::from(b1));
-                    log.read_pair(Stream::Texture, a, b, run);
-                } else {
-                    log.touch(Stream::Texture, row_line + u64::from(b0), false);
-                }
-            }
+                (row_line + u64::from(b0), row_line + u64::from(b1), run)
+            });
+            // The first run is never empty: a footprint clamped at the top lies in one block row.
+            let runs = match runs[1].2 {
+                0 => &runs[..1],
+                _ => &runs[..],
+            };
+            log.read_runs(runs);
             if let Some(decided) = decided {
                 return decided;
             }
