@@ -309,16 +309,17 @@ impl AccessLog {
             runs: [(u32::MAX, u32::MAX); FOOTPRINT_RUNS],
             lines: 0,
         };
-        for (run, &(a, b, _)) in footprint.runs.iter_mut().zip(runs) {
-            *run = (a as u32 & LINE_MASK, b as u32 & LINE_MASK);
-            footprint.lines += if a == b { 1 } else { 2 };
+        for (i, &(a, b, _)) in runs.iter().enumerate() {
+            footprint.runs[i] = (a as u32 & LINE_MASK, b as u32 & LINE_MASK);
+            footprint.lines += 1 + usize::from(a != b);
         }
         let logged = self.entries[s].len();
         if footprint.lines <= self.texture_ways && self.last_footprint == Some((footprint, logged)) {
             // What the reads would do: each one a counted hit, but for a run's first read
             // that repeats the access before it, which the log drops.
             let mut previous = self.last[s];
-            for (&(a, b), &(_, _, times)) in footprint.runs.iter().zip(runs) {
+            for (i, &(_, _, times)) in runs.iter().enumerate() {
+                let (a, b) = footprint.runs[i];
                 let dropped = previous == a || previous == a | WRITE_BIT;
                 let reads = if a == b { 1 } else { 2 * u64::from(times) };
                 self.texture_hits += reads - u64::from(dropped);
