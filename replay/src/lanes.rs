@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use wide::f32x4;
 
 /// Four `Vec3`s, one per lane, stored by component.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Vec3x4 {
     x: f32x4,
     y: f32x4,
@@ -38,6 +38,12 @@ impl Vec3x4 {
     pub fn to_lanes(self) -> [Vec3; 4] {
         let (x, y, z) = (self.x.to_array(), self.y.to_array(), self.z.to_array());
         std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
+    }
+
+    /// Lane `l`.
+    #[inline]
+    pub fn lane(self, l: usize) -> Vec3 {
+        Vec3::new(self.x.to_array()[l], self.y.to_array()[l], self.z.to_array()[l])
     }
 
     /// The x, y and z components of the four lanes.
@@ -120,6 +126,19 @@ impl Vec3x4 {
     }
 }
 
+impl std::ops::Add for Vec3x4 {
+    type Output = Vec3x4;
+
+    #[inline]
+    fn add(self, other: Vec3x4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.x + other.x,
+            y: self.y + other.y,
+            z: self.z + other.z,
+        }
+    }
+}
+
 impl std::ops::Sub for Vec3x4 {
     type Output = Vec3x4;
 
@@ -172,6 +191,7 @@ mod tests {
             let normalized = va.normalize_or(vb).to_lanes();
             let dot = va.dot(vb).to_array();
             let difference = (va - vb).to_lanes();
+            let sum = (va + vb).to_lanes();
             let scaled = va.scale(vs).to_lanes();
             let flipped = va.negate_where_negative(vs, enabled).to_lanes();
             let unscaled = va.unscale(vs).to_lanes();
@@ -182,6 +202,8 @@ mod tests {
                 prop_assert_eq!(bits(normalized[l]), bits(a[l].normalize_or(b[l])));
                 prop_assert_eq!(dot[l].to_bits(), a[l].dot(b[l]).to_bits());
                 prop_assert_eq!(bits(difference[l]), bits(a[l] - b[l]));
+                prop_assert_eq!(bits(sum[l]), bits(a[l] + b[l]));
+                prop_assert_eq!(bits(va.lane(l)), bits(a[l]));
                 prop_assert_eq!(bits(scaled[l]), bits(a[l] * s[l]));
                 let flip = enabled && s[l] < 0.0;
                 prop_assert_eq!(bits(flipped[l]), bits(if flip { -a[l] } else { a[l] }));

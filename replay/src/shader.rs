@@ -150,7 +150,7 @@ const QUAD_LIGHTS: usize = 4;
 /// a job from quad to quad.
 #[derive(Default)]
 pub struct QuadLighting {
-    positions: [Vec3; 4],
+    positions: Vec3x4,
     directions: [PointDirections; 4],
     n_dot_l: [[f32; 4]; QUAD_LIGHTS],
     r_dot_l: [[f32; 4]; QUAD_LIGHTS],
@@ -257,21 +257,21 @@ impl ShaderEnv<'_> {
         &self,
         material: u32,
         eye: Vec3,
-        positions: &[Vec3; 4],
-        normals: &[Vec3; 4],
+        positions: Vec3x4,
+        normals: Vec3x4,
         quad: &mut QuadLighting,
     ) -> bool {
         if self.maps.of(material).normal.is_some() || self.lights.len() > QUAD_LIGHTS {
             return false;
         }
         let double_sided = self.materials[material as usize].double_sided;
-        let p = Vec3x4::from_lanes(positions);
+        let p = positions;
         let v = (Vec3x4::splat(eye) - p).normalize_or(Vec3x4::splat(Vec3::Z));
-        let n = Vec3x4::from_lanes(normals).normalize_or(Vec3x4::splat(Vec3::Y));
+        let n = normals.normalize_or(Vec3x4::splat(Vec3::Y));
         let n = n.negate_where_negative(n.dot(v), double_sided);
         let twice = n.dot(v) * f32x4::splat(2.0);
         let r = (n.scale(twice) - v).normalize_or(n);
-        quad.positions = *positions;
+        quad.positions = positions;
         let (n_lanes, r_lanes) = (n.to_lanes(), r.to_lanes());
         quad.directions = std::array::from_fn(|l| PointDirections {
             n: n_lanes[l],
@@ -356,7 +356,7 @@ impl ShaderEnv<'_> {
             LightKind::Point { .. } | LightKind::Spot { .. } => {
                 let PointDirections { n, r } = quad.directions[l];
                 let point = PointInputs {
-                    position: quad.positions[l],
+                    position: quad.positions.lane(l),
                     n,
                     r,
                     exponent,
@@ -795,7 +795,8 @@ mod tests {
             let list = [0u32, 2];
             let list = listed.then_some(&list[..]);
             let mut quad = QuadLighting::default();
-            prop_assert!(env.quad_lighting(0, eye, &positions, &normals, &mut quad));
+            let (p, n) = (Vec3x4::from_lanes(&positions), Vec3x4::from_lanes(&normals));
+            prop_assert!(env.quad_lighting(0, eye, p, n, &mut quad));
             let (mut quad_log, mut lane_log) = (AccessLog::new(), AccessLog::new());
             let bits = |v: Vec3| v.to_array().map(f32::to_bits);
             for l in 0..4 {

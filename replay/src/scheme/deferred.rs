@@ -168,7 +168,7 @@ impl SchemeJob for DeferredJob {
         let material = ctx.triangle.material;
         let stage = acc.cost.stage_mut(GBUFFER);
         for &(quad, passed) in visible.quads {
-            let lanes = ctx.quad_attributes(quad.x, quad.y);
+            let lanes = ctx.quad_attributes(quad.x, quad.y).lanes();
             let duv_dx = lanes[1].uv - lanes[0].uv;
             let duv_dy = lanes[2].uv - lanes[0].uv;
             for (l, lane) in lanes.iter().enumerate() {

@@ -20,9 +20,11 @@ pub use reprojection::{HoleFill, Reprojection};
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use shadetrace_formats::results::{DaisStats, ReprojectionStats, ShadingCacheStats, ShadingCost, Traffic};
+use wide::f32x4;
 
 use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::{FrameGeometry, Triangle};
+use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
 use crate::pipeline::{Counters, SampleBuffer};
 use crate::raster::pixel_center;
@@ -81,6 +83,36 @@ pub struct LaneAttributes {
     pub uv: Vec2,
 }
 
+/// Interpolated attributes of a quad's four lanes, positions and normals by component
+/// ([`UnitContext::quad_attributes`]).
+#[derive(Clone, Copy, Debug)]
+pub struct QuadAttributes {
+    pub position: Vec3x4,
+    pub normal: Vec3x4,
+    pub uv: [Vec2; 4],
+}
+
+impl QuadAttributes {
+    /// Lane `l`'s attributes.
+    pub fn lane(&self, l: usize) -> LaneAttributes {
+        LaneAttributes {
+            position: self.position.lane(l),
+            normal: self.normal.lane(l),
+            uv: self.uv[l],
+        }
+    }
+
+    /// The four lanes' attributes.
+    pub fn lanes(&self) -> [LaneAttributes; 4] {
+        let (position, normal) = (self.position.to_lanes(), self.normal.to_lanes());
+        std::array::from_fn(|l| LaneAttributes {
+            position: position[l],
+            normal: normal[l],
+            uv: self.uv[l],
+        })
+    }
+}
+
 impl UnitContext<'_> {
     /// Attributes at a pixel centre (perspective-correct, extrapolated outside the triangle).
     pub fn attributes(&self, x: u32, y: u32) -> LaneAttributes {
@@ -90,12 +122,26 @@ impl UnitContext<'_> {
 
     /// Attributes at the pixel centres of the quad whose top-left pixel is (`x`, `y`), lane
     /// `l` at (`x + (l & 1)`, `y + (l >> 1)`): [`Self::attributes`] of each lane, bit for bit
-    /// (the barycentrics four lanes at a time, then each lane's [`Self::interpolate`]).
+    /// (the barycentrics and [`Self::interpolate`]'s operations four lanes at a time).
     #[inline]
-    pub fn quad_attributes(&self, x: u32, y: u32) -> [LaneAttributes; 4] {
+    pub fn quad_attributes(&self, x: u32, y: u32) -> QuadAttributes {
         let (px, py) = pixel_center(x, y);
-        let b = self.setup.original_barys(self.setup.quad_edges(px, py));
-        std::array::from_fn(|l| self.interpolate(Vec3::new(b[0][l], b[1][l], b[2][l])))
+        let b = self.setup.original_barys(self.setup.quad_edges(px, py)).map(f32x4::new);
+        let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
+        let g = self.geometry;
+        // glam's `p[i] * b.x + p[j] * b.y + p[k] * b.z`, lane by lane.
+        let mix = |p: &[Vec3]| {
+            Vec3x4::splat(p[i]).scale(b[0]) + Vec3x4::splat(p[j]).scale(b[1]) + Vec3x4::splat(p[k]).scale(b[2])
+        };
+        let uv = |c: usize| {
+            f32x4::splat(g.uvs[i][c]) * b[0] + f32x4::splat(g.uvs[j][c]) * b[1] + f32x4::splat(g.uvs[k][c]) * b[2]
+        };
+        let (u, v) = (uv(0).to_array(), uv(1).to_array());
+        QuadAttributes {
+            position: mix(&g.positions),
+            normal: mix(&g.normals),
+            uv: std::array::from_fn(|l| Vec2::new(u[l], v[l])),
+        }
     }
 
     /// Attributes at a fixed-point screen position (8 sub-pixel bits).
@@ -376,5 +422,76 @@ impl<'a> std::ops::Deref for TileContext<'a> {
     type Target = ViewContext<'a>;
     fn deref(&self) -> &ViewContext<'a> {
         &self.view_ctx
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Triangle;
+    use crate::vertex_stage::setup_view;
+    use proptest::prelude::*;
+    use shadetrace_formats::SurfaceMaps;
+
+    fn vec3(range: std::ops::Range<f32>) -> impl Strategy<Value = Vec3> {
+        prop::array::uniform3(range).prop_map(Vec3::from_array)
+    }
+
+    proptest! {
+        /// A quad's attributes, four lanes at a time, are each lane's own, bit for bit, in
+        /// perspective and outside the triangle too (helper lanes extrapolate).
+        #[test]
+        fn quad_attributes_are_each_lanes_own(
+            positions in prop::array::uniform3(vec3(-1.0..1.0)),
+            depths in prop::array::uniform3(1.5f32..6.0),
+            normals in prop::array::uniform3(vec3(-10.0..10.0)),
+            uvs in prop::array::uniform3(prop::array::uniform2(-4.0f32..4.0)),
+            x in 0u32..32,
+            y in 0u32..24,
+        ) {
+            let geometry = FrameGeometry {
+                positions: std::array::from_fn::<_, 3, _>(|v| {
+                    (positions[v] * depths[v]).with_z(-depths[v])
+                })
+                .to_vec(),
+                normals: normals.to_vec(),
+                uvs: uvs.map(Vec2::from_array).to_vec(),
+                tangents: Vec::new(),
+                triangles: vec![Triangle { vertices: [0, 1, 2], material: 0, patch: u32::MAX, mesh: 0 }],
+            };
+            let view_projection = Mat4::perspective_rh(1.2, 64.0 / 48.0, 0.1, 10.0);
+            let (setups, _) = setup_view(&geometry, &[true], view_projection, 64, 48);
+            prop_assume!(!setups.is_empty());
+            let maps = SurfaceMaps::default();
+            let env = ShaderEnv { materials: &[], textures: &[], lights: &[], shadow: None, receivers: None, maps: &maps };
+            let ctx = UnitContext {
+                view_ctx: ViewContext {
+                    view: 0,
+                    eye: Vec3::ZERO,
+                    view_projections: [view_projection; 2],
+                    eyes: [Vec3::ZERO; 2],
+                    depth_range: (0.1, 10.0),
+                    width: 64,
+                    height: 48,
+                    geometry: &geometry,
+                    env: &env,
+                    setups: &setups,
+                    layout: FramebufferLayout::new(64, 48, 1),
+                },
+                setup: &setups[0],
+                triangle: &geometry.triangles[0],
+            };
+            let (x, y) = (2 * x, 2 * y);
+            let quad = ctx.quad_attributes(x, y);
+            let bits = |v: &[f32]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+            for l in 0..4 {
+                let (got, want) = (quad.lane(l), ctx.attributes(x + (l as u32 & 1), y + (l as u32 >> 1)));
+                prop_assert_eq!(bits(&got.position.to_array()), bits(&want.position.to_array()));
+                prop_assert_eq!(bits(&got.normal.to_array()), bits(&want.normal.to_array()));
+                prop_assert_eq!(bits(&got.uv.to_array()), bits(&want.uv.to_array()));
+                let lanes = quad.lanes();
+                prop_assert_eq!(bits(&lanes[l].position.to_array()), bits(&got.position.to_array()));
+            }
+        }
     }
 }

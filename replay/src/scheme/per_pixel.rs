@@ -85,27 +85,31 @@ impl SchemeJob for PerPixelJob {
         let material = ctx.triangle.material;
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
-            let lanes = ctx.quad_attributes(quad.x, quad.y);
-            let duv_dx = lanes[1].uv - lanes[0].uv;
-            let duv_dy = lanes[2].uv - lanes[0].uv;
-            let positions = lanes.map(|lane| lane.position);
-            let normals = lanes.map(|lane| lane.normal);
-            let quad_lit = ctx
-                .env
-                .quad_lighting(material, ctx.eye, &positions, &normals, &mut self.quad);
+            let attributes = ctx.quad_attributes(quad.x, quad.y);
+            let uvs = attributes.uv;
+            let duv_dx = uvs[1] - uvs[0];
+            let duv_dy = uvs[2] - uvs[0];
+            let quad_lit = ctx.env.quad_lighting(
+                material,
+                ctx.eye,
+                attributes.position,
+                attributes.normal,
+                &mut self.quad,
+            );
             let list = self.lists.as_ref().map(|tiles| {
                 let key = (ctx.view, quad.x / TILED_TILE, quad.y / TILED_TILE);
                 tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
             });
             let mut out = [Vec4::ZERO; 4];
-            for (l, lane) in lanes.iter().enumerate() {
+            for (l, &uv) in uvs.iter().enumerate() {
                 let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
                 self.blocks.clear();
-                let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
+                let at = ctx.surface_point(uv, duv_dx, duv_dy, x, y);
                 let (blocks, log) = (&mut self.blocks, &mut *acc.log);
                 let lighting = match quad_lit {
                     true => ctx.env.lane_lighting(&self.quad, l, material, &at, list, blocks, log),
                     false => {
+                        let lane = attributes.lane(l);
                         let inputs = LightingInputs {
                             position: lane.position,
                             normal: lane.normal,

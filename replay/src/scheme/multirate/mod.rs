@@ -457,7 +457,7 @@ impl MultirateJob {
     /// Fine stage of one quad: albedo per pixel, coarse terms resampled, refined effects
     /// recomputed; returns the four lane colours.
     fn shade_quad(&mut self, ctx: &UnitContext, index: usize, quad: &ShadeQuad, acc: &mut Accounting) -> [Vec4; 4] {
-        let lanes = ctx.quad_attributes(quad.x, quad.y);
+        let lanes = ctx.quad_attributes(quad.x, quad.y).lanes();
         let duv_dx = lanes[1].uv - lanes[0].uv;
         let duv_dy = lanes[2].uv - lanes[0].uv;
         let Some(sources) = self.lane_sources(index, quad) else {
