@@ -124,12 +124,26 @@ pub struct AccessLog {
 /// The most runs of reads in one footprint ([`AccessLog::read_runs`]).
 const FOOTPRINT_RUNS: usize = 2;
 
-/// The lines of a footprint's runs of reads ([`AccessLog::read_runs`]), unused runs
-/// `u32::MAX`, and how many lines that is (a line's sets counted apart).
+/// The lines of a footprint's runs of reads ([`AccessLog::read_runs`]), and how many lines
+/// that is (a line's sets counted apart).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Footprint {
     runs: [(u32, u32); FOOTPRINT_RUNS],
+    len: usize,
     lines: usize,
+}
+
+impl Footprint {
+    /// Whether `self`'s runs are the last runs of `other`'s.
+    #[inline(always)]
+    fn ends(&self, other: &Footprint) -> bool {
+        // Unused runs are alike, so a footprint of as many runs compares whole.
+        match other.len.checked_sub(self.len) {
+            Some(0) => self.runs == other.runs,
+            Some(skipped) => self.runs[..self.len] == other.runs[skipped..other.len],
+            None => false,
+        }
+    }
 }
 
 /// Where one command's accesses start in each stream (and in the counted texture hits);
@@ -293,13 +307,14 @@ impl AccessLog {
     /// A filter footprint's texture reads, in runs, each at least once: `a b a b ...`
     /// `times` over ([`Self::read_pair`]), or `a` once where `b == a` (rows inside one line).
     ///
-    /// A footprint read right after one of the same lines in the same runs (in the same
-    /// command, with no texture access logged in between) hits on every read, as long as
-    /// no set holds more of its lines than the cache has ways: each set's most recent lines
-    /// are then the footprint's own. And it leaves the cache as the first did: a run ends
-    /// on `a b` however many times it repeats, so the lines' last reads come in the same
-    /// order. Such a footprint is counted, not logged. (Neighbouring pixels' shadow
-    /// footprints mostly lie in the same blocks.)
+    /// A footprint read right after one whose runs end in its own (in the same command,
+    /// with no texture access logged in between) hits on every read, as long as no set holds
+    /// more of the earlier footprint's lines than the cache has ways: each set's most recent
+    /// lines are then that footprint's. And it leaves the cache as it found it: a run ends
+    /// on `a b` however many times it repeats, and the earlier footprint's last runs were
+    /// these, so the lines' last reads come in the same order. Such a footprint is counted,
+    /// not logged, and the earlier one stays the one to compare with. (Neighbouring pixels'
+    /// shadow footprints mostly lie in the same blocks.)
     #[inline(always)]
     pub fn read_runs(&mut self, runs: &[(u64, u64, u32)]) {
         assert!(runs.len() <= FOOTPRINT_RUNS, "a footprint of {} runs", runs.len());
@@ -307,6 +322,7 @@ impl AccessLog {
         let s = Stream::Texture as usize;
         let mut footprint = Footprint {
             runs: [(u32::MAX, u32::MAX); FOOTPRINT_RUNS],
+            len: runs.len(),
             lines: 0,
         };
         for (i, &(a, b, _)) in runs.iter().enumerate() {
@@ -314,7 +330,9 @@ impl AccessLog {
             footprint.lines += 1 + usize::from(a != b);
         }
         let logged = self.entries[s].len();
-        if footprint.lines <= self.texture_ways && self.last_footprint == Some((footprint, logged)) {
+        let repeats =
+            |(last, at): (Footprint, usize)| at == logged && last.lines <= self.texture_ways && footprint.ends(&last);
+        if self.last_footprint.is_some_and(repeats) {
             // What the reads would do: each one a counted hit, but for a run's first read
             // that repeats the access before it, which the log drops.
             let mut previous = self.last[s];
@@ -326,7 +344,6 @@ impl AccessLog {
                 previous = b;
             }
             self.last[s] = previous;
-            self.last_footprint = Some((footprint, logged));
             return;
         }
         for &(a, b, times) in runs {
@@ -1120,7 +1137,8 @@ mod tests {
     /// it counts none but repeated footprints; more sets than the log's table has slots;
     /// fewer lines than a footprint has), with another job's commands replayed between a
     /// log's (a line read in its previous command is not assumed still there), with writes,
-    /// counted repeats, footprints' lines read again, and a log cleared and reused.
+    /// counted repeats, footprints' lines (all or some of their runs) read again, and a log
+    /// cleared and reused.
     #[test]
     fn texture_hits_the_log_counts_replay_as_the_reads_logged() {
         // (cache lines, lines touched)
@@ -1164,11 +1182,17 @@ mod tests {
                                     plain.read_runs(footprint);
                                 }
                                 // The last footprint's lines again, often right after
-                                // it, each run as many times over or not.
+                                // it, each run as many times over or not; or only its
+                                // first or its last run.
                                 4 => {
                                     footprint.iter_mut().for_each(|run| run.2 = 1 + next(5) as u32);
-                                    knowing.read_runs(footprint);
-                                    plain.read_runs(footprint);
+                                    let part = match (next(3), footprint.len()) {
+                                        (1, 2) => &footprint[..1],
+                                        (2, 2) => &footprint[1..],
+                                        _ => &footprint[..],
+                                    };
+                                    knowing.read_runs(part);
+                                    plain.read_runs(part);
                                 }
                                 0 => {
                                     let (b, times) = (next(span), next(5) as u32);
