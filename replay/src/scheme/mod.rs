@@ -28,7 +28,7 @@ use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, FramebufferLayout, MemoOutcome, RenderTarget};
 use crate::pipeline::{Counters, SampleBuffer};
 use crate::raster::pixel_center;
-use crate::shader::{ShaderEnv, SurfacePoint};
+use crate::shader::{LightingInputs, ShaderEnv, SurfacePoint};
 use crate::vertex_stage::SetupTriangle;
 
 /// A quad with at least one sample that passed the depth test.
@@ -81,6 +81,20 @@ pub struct LaneAttributes {
     pub position: Vec3,
     pub normal: Vec3,
     pub uv: Vec2,
+}
+
+impl LaneAttributes {
+    /// The lighting's inputs at the lane, seen from `eye`, its surface maps sampled at `at`.
+    #[inline]
+    pub fn lighting_inputs(&self, eye: Vec3, material: u32, at: SurfacePoint) -> LightingInputs {
+        LightingInputs {
+            position: self.position,
+            normal: self.normal,
+            eye,
+            material,
+            surface: at,
+        }
+    }
 }
 
 /// Interpolated attributes of a quad's four lanes, positions and normals by component

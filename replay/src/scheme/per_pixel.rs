@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, LightingInputs, QuadLighting};
+use crate::shader::{compose, QuadLighting};
 
 pub struct PerPixel;
 
@@ -109,14 +109,7 @@ impl SchemeJob for PerPixelJob {
                 let lighting = match quad_lit {
                     true => ctx.env.lane_lighting(&self.quad, l, material, &at, list, blocks, log),
                     false => {
-                        let lane = attributes.lane(l);
-                        let inputs = LightingInputs {
-                            position: lane.position,
-                            normal: lane.normal,
-                            eye: ctx.eye,
-                            material,
-                            surface: at,
-                        };
+                        let inputs = attributes.lane(l).lighting_inputs(ctx.eye, material, at);
                         match list {
                             Some(list) => ctx.env.lighting_listed(&inputs, list, blocks, log),
                             None => ctx.env.lighting(&inputs, blocks, log),

@@ -486,13 +486,7 @@ impl MultirateJob {
             lane_blocks.take(Block::Resample);
             let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
             if !refine.is_empty() {
-                let inputs = LightingInputs {
-                    position: lane.position,
-                    normal: lane.normal,
-                    eye: ctx.eye,
-                    material,
-                    surface: at,
-                };
+                let inputs = lane.lighting_inputs(ctx.eye, material, at);
                 ctx.env
                     .light_terms(&inputs, refine, &mut self.terms, lane_blocks, acc.log);
             }
