@@ -515,7 +515,7 @@ impl ShaderEnv<'_> {
         }
     }
 
-    /// A point's directions ([`Self::quad_directions`] computes the same for four points
+    /// A point's directions ([`Self::quad_lighting`] computes the same for four points
     /// of a material without a normal map).
     fn directions(
         &self,
