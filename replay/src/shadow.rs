@@ -22,7 +22,7 @@ const BAND: u32 = 64;
 /// PCF footprint radius in texels (5x5).
 const PCF_RADIUS: i32 = 2;
 const PCF_TAPS: usize = 2 * PCF_RADIUS as usize + 1;
-// A footprint's rows span at most two block rows (`ShadowMap::pcf`).
+// A footprint's rows span at most two block rows (`ShadowMap::filter`).
 const _: () = assert!(PCF_TAPS <= BLOCK as usize);
 
 /// A small map of blocks at several depths, for tests.
@@ -31,7 +31,7 @@ pub(crate) use tests::map_of as test_map;
 
 /// Where a receiver's 5x5 PCF footprint lies: its centre texel, and the biased depth its taps
 /// are compared with.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub struct PcfFootprint {
     tx: i32,
     ty: i32,
@@ -247,18 +247,8 @@ impl ShadowMap {
         level
     }
 
-    /// Fraction of the 5x5 footprint around `position` that sees the light (1 = lit).
-    /// Receivers outside the map are lit.
-    #[inline(always)]
-    pub fn pcf(&self, position: Vec3, n_dot_l: f32, log: &mut AccessLog) -> f32 {
-        match self.footprint(position, n_dot_l) {
-            Some(footprint) => self.filter(footprint, log),
-            None => 1.0,
-        }
-    }
-
-    /// Where the footprint of a receiver at `position` lies, its normal at cosine `n_dot_l`
-    /// to the light; None outside the map.
+    /// Where the 5x5 PCF footprint of a receiver at `position` lies, its normal at cosine
+    /// `n_dot_l` to the light; None outside the map, where receivers are lit.
     #[inline(always)]
     pub fn footprint(&self, position: Vec3, n_dot_l: f32) -> Option<PcfFootprint> {
         let clip = self.view_projection * position.extend(1.0);
@@ -308,7 +298,8 @@ impl ShadowMap {
         })
     }
 
-    /// Fraction of the footprint's taps that see the light, logging the texel lines they read.
+    /// Fraction of the footprint's taps that see the light (1 = lit), logging the texel lines
+    /// they read.
     #[inline(always)]
     pub fn filter(&self, footprint: PcfFootprint, log: &mut AccessLog) -> f32 {
         let PcfFootprint { tx, ty, receiver } = footprint;
@@ -557,7 +548,8 @@ mod tests {
         fn pcf_counts_every_tap(x in -1.0f32..1.0, y in -1.0f32..1.0, z in 0.0f32..1.0, n_dot_l in 0.0f32..1.0) {
             let map = map();
             let mut log = AccessLog::new();
-            let got = map.pcf(Vec3::new(x, y, z), n_dot_l, &mut log);
+            let footprint = map.footprint(Vec3::new(x, y, z), n_dot_l).unwrap();
+            let got = map.filter(footprint, &mut log);
             let size = map.size as i32;
             let (tx, ty) = (((x * 0.5 + 0.5) * 64.0).floor() as i32, ((0.5 - y * 0.5) * 64.0).floor() as i32);
             let slope = (1.0 - n_dot_l * n_dot_l).max(0.0).sqrt() / n_dot_l.max(0.05);
