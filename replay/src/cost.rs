@@ -5,7 +5,6 @@
 use shadetrace_formats::results::{ShadingCost, StageCost};
 
 use crate::by_name::ByName;
-
 use crate::cost_table::{Block, BlockCost};
 
 /// Stage of shading at pixel rate (every scheme's per-pixel lanes; FineInst in the tile-pair
