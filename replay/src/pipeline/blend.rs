@@ -31,9 +31,70 @@ pub fn merge(
     raster: &mut RasterStats,
     log: &mut AccessLog,
 ) -> bool {
+    // The mode is the triangle's: chosen once, so each fragment runs only its own write.
+    let setup = input.setup;
+    match input.alpha {
+        AlphaMode::Opaque => merge_lanes(
+            input,
+            buffer,
+            layout,
+            raster,
+            log,
+            |_| false,
+            |buffer, i, _, src| {
+                buffer.color[i] = src.truncate().extend(1.0);
+                false
+            },
+        ),
+        AlphaMode::Blend => merge_lanes(
+            input,
+            buffer,
+            layout,
+            raster,
+            log,
+            |_| false,
+            |buffer, i, _, src| {
+                let a = src.w.clamp(0.0, 1.0);
+                buffer.color[i] = (src * a + buffer.color[i] * (1.0 - a)).truncate().extend(1.0);
+                buffer.blended[i / buffer.samples] = true;
+                false
+            },
+        ),
+        AlphaMode::Mask { cutoff } => merge_lanes(
+            input,
+            buffer,
+            layout,
+            raster,
+            log,
+            |alpha| alpha < cutoff,
+            |buffer, i, (sx, sy), src| {
+                // Late depth write: only fragments that survived the alpha test.
+                let z = setup.depth(setup.edges(sx, sy));
+                let passes = depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i]);
+                if passes {
+                    buffer.write_depth(i, z, setup.prim, input.tri);
+                    buffer.color[i] = src.truncate().extend(1.0);
+                }
+                passes
+            },
+        ),
+    }
+}
+
+/// Writes the lanes of `input` whose alpha `discards` does not reject: `write` gets each
+/// passing sample (its index, position and the lane's colour) and says whether it wrote a
+/// depth; each written lane touches its colour line once.
+fn merge_lanes(
+    input: &MergeInput,
+    buffer: &mut SampleBuffer,
+    layout: &FramebufferLayout,
+    raster: &mut RasterStats,
+    log: &mut AccessLog,
+    discards: impl Fn(f32) -> bool,
+    mut write: impl FnMut(&mut SampleBuffer, usize, (i64, i64), Vec4) -> bool,
+) -> bool {
     let mut depth_written = false;
     let samples = buffer.samples;
-    let setup = input.setup;
     for ((quad, passed), lane_colors) in input.quads.iter().zip(input.colors) {
         for lane in 0..4u32 {
             let bits = passed >> (lane as usize * samples) & ((1 << samples) - 1);
@@ -42,33 +103,14 @@ pub fn merge(
             }
             let (x, y) = (quad.x + (lane & 1), quad.y + (lane >> 1));
             let src = lane_colors[lane as usize];
-            if let AlphaMode::Mask { cutoff } = input.alpha {
-                if src.w < cutoff {
-                    continue;
-                }
+            if discards(src.w) {
+                continue;
             }
             raster.fragments_shaded += 1;
             for s in (0..samples).filter(|s| bits & (1 << s) != 0) {
                 raster.samples_passed += 1;
                 let i = buffer.index(x, y, s);
-                match input.alpha {
-                    AlphaMode::Blend => {
-                        let a = src.w.clamp(0.0, 1.0);
-                        buffer.color[i] = (src * a + buffer.color[i] * (1.0 - a)).truncate().extend(1.0);
-                        buffer.blended[i / samples] = true;
-                    }
-                    AlphaMode::Mask { .. } => {
-                        // Late depth write: only fragments that survived the alpha test.
-                        let (sx, sy) = sample_position(x, y, input.offsets[s]);
-                        let z = setup.depth(setup.edges(sx, sy));
-                        if depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i]) {
-                            buffer.write_depth(i, z, setup.prim, input.tri);
-                            depth_written = true;
-                            buffer.color[i] = src.truncate().extend(1.0);
-                        }
-                    }
-                    AlphaMode::Opaque => buffer.color[i] = src.truncate().extend(1.0),
-                }
+                depth_written |= write(buffer, i, sample_position(x, y, input.offsets[s]), src);
             }
             log.touch(Stream::Color, layout.color_line(input.view, x, y), true);
         }
