@@ -351,7 +351,7 @@ impl ShaderEnv<'_> {
                     strength,
                 };
                 let footprint = |_: &ShadowMap| quad.footprints[k][l];
-                self.directional_term(light, &shading, footprint, Effects::all(), term, flags, log)
+                self.directional_term(light, &shading, footprint, Effects::all(), true, term, flags, log)
             }
             LightKind::Point { .. } | LightKind::Spot { .. } => {
                 let PointDirections { n, r } = quad.directions[l];
@@ -464,14 +464,18 @@ impl ShaderEnv<'_> {
                     strength: point.strength,
                 };
                 let footprint = |map: &ShadowMap| map.footprint(point.position, n_dot_l);
-                self.directional_term(light, &shading, footprint, effects, term, flags, log)
+                self.directional_term(light, &shading, footprint, effects, false, term, flags, log)
             }
             LightKind::Point { .. } | LightKind::Spot { .. } => local_term(light, point, effects, term, flags),
         }
     }
 
     /// A directional light's term: `footprint` gives the point's PCF footprint in the shadow
-    /// map, asked only where the light is shadowed.
+    /// map, asked only where the light is shadowed. When the term only feeds
+    /// [`Self::combine`] (`only_combined`; a multi-rate scheme's predicates also read its
+    /// specular), a specular term a full shadow hides is not computed: with a power in
+    /// `[0, 1]` and a finite strength, `0 * (diffuse + specular)` is zero either way, so the
+    /// colour's bits are the same without the `powf`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn directional_term(
@@ -480,6 +484,7 @@ impl ShaderEnv<'_> {
         shading: &Directional,
         footprint: impl FnOnce(&ShadowMap) -> Option<PcfFootprint>,
         effects: Effects,
+        only_combined: bool,
         term: &mut LightTerm,
         flags: &mut LightBlocks,
         log: &mut AccessLog,
@@ -496,14 +501,6 @@ impl ShaderEnv<'_> {
         // The specular and shadow effects run on every fragment, facing the light or not,
         // as in He et al.'s shaders (Fig. 9: no test of N·L), so a pixel costs the same on
         // either side; what they add stays zero on the unlit side.
-        if effects.contains(Effects::SPECULAR) {
-            *flags |= LightBlocks::SPECULAR;
-            term.specular = if lit {
-                shading.strength * phong(shading.r_dot_l, shading.exponent)
-            } else {
-                0.0
-            };
-        }
         if effects.contains(Effects::SHADOW) && light.shadowed {
             term.scale = match self.shadow {
                 Some(map) => {
@@ -511,6 +508,24 @@ impl ShaderEnv<'_> {
                     footprint(map).map_or(1.0, |footprint| map.filter(footprint, log))
                 }
                 None => 1.0,
+            };
+        }
+        if effects.contains(Effects::SPECULAR) {
+            *flags |= LightBlocks::SPECULAR;
+            // Where the specular term could be infinite or NaN, it is computed: it decides
+            // the bits (R·L can round past 1, which an infinite exponent takes to infinity).
+            // Its sign does not matter: a ±0 term leaves the positive ambient sum alone.
+            let hidden = only_combined
+                && effects.contains(Effects::SHADOW)
+                && light.shadowed
+                && term.scale == 0.0
+                && shading.r_dot_l <= 1.0
+                && shading.exponent >= 0.0
+                && shading.strength.is_finite();
+            term.specular = if lit && !hidden {
+                shading.strength * phong(shading.r_dot_l, shading.exponent)
+            } else {
+                0.0
             };
         }
     }
@@ -739,10 +754,15 @@ mod tests {
     }
 
     proptest! {
+        // A fully shadowed, lit lane with a NaN or infinite Phong parameter is rare among
+        // the draws; 4096 cases (a fraction of a second) reach it every time.
+        #![proptest_config(ProptestConfig::with_cases(4096))]
+
         /// A quad's lighting, its arithmetic four lanes at a time and the rest lane by lane,
         /// gives each lane the bits, the blocks and the shadow-map reads of the lane's own
         /// lighting: the two are written apart and must not drift. Every kind of light, with
-        /// and without a light list.
+        /// and without a light list, and Phong parameters out of range (the quad's skips a
+        /// specular term a full shadow hides only where that keeps the bits).
         #[test]
         fn quad_lighting_is_each_lanes_own(
             eye in vec3(),
@@ -750,13 +770,15 @@ mod tests {
             normals in prop::array::uniform4(vec3()),
             double_sided in any::<bool>(),
             listed in any::<bool>(),
+            specular_exponent in prop_oneof![0.0f32..200.0, Just(-3.0), Just(f32::INFINITY), Just(f32::NAN)],
+            specular_strength in prop_oneof![0.0f32..2.0, Just(-1.0), Just(f32::INFINITY), Just(f32::NAN)],
         ) {
             let material = Material {
                 name: String::new(),
                 base_color: [1.0; 4],
                 base_color_texture: None,
-                specular_exponent: 16.0,
-                specular_strength: 0.5,
+                specular_exponent,
+                specular_strength,
                 alpha: AlphaMode::Opaque,
                 double_sided,
             };
