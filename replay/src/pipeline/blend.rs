@@ -34,40 +34,24 @@ pub fn merge(
     // The mode is the triangle's: chosen once, so each fragment runs only its own write.
     let setup = input.setup;
     match input.alpha {
-        AlphaMode::Opaque => merge_lanes(
-            input,
-            buffer,
-            layout,
-            raster,
-            log,
-            |_| false,
-            |buffer, i, _, src| {
+        AlphaMode::Opaque => {
+            let write = |buffer: &mut SampleBuffer, i: usize, _, src: Vec4| {
                 buffer.color[i] = src.truncate().extend(1.0);
                 false
-            },
-        ),
-        AlphaMode::Blend => merge_lanes(
-            input,
-            buffer,
-            layout,
-            raster,
-            log,
-            |_| false,
-            |buffer, i, _, src| {
+            };
+            merge_lanes(input, buffer, layout, raster, log, |_| false, write)
+        }
+        AlphaMode::Blend => {
+            let write = |buffer: &mut SampleBuffer, i: usize, _, src: Vec4| {
                 let a = src.w.clamp(0.0, 1.0);
                 buffer.color[i] = (src * a + buffer.color[i] * (1.0 - a)).truncate().extend(1.0);
                 buffer.blended[i / buffer.samples] = true;
                 false
-            },
-        ),
-        AlphaMode::Mask { cutoff } => merge_lanes(
-            input,
-            buffer,
-            layout,
-            raster,
-            log,
-            |alpha| alpha < cutoff,
-            |buffer, i, (sx, sy), src| {
+            };
+            merge_lanes(input, buffer, layout, raster, log, |_| false, write)
+        }
+        AlphaMode::Mask { cutoff } => {
+            let write = |buffer: &mut SampleBuffer, i: usize, (sx, sy), src: Vec4| {
                 // Late depth write: only fragments that survived the alpha test.
                 let z = setup.depth(setup.edges(sx, sy));
                 let passes = depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i]);
@@ -76,8 +60,9 @@ pub fn merge(
                     buffer.color[i] = src.truncate().extend(1.0);
                 }
                 passes
-            },
-        ),
+            };
+            merge_lanes(input, buffer, layout, raster, log, |alpha| alpha < cutoff, write)
+        }
     }
 }
 
