@@ -515,14 +515,16 @@ impl ShaderEnv<'_> {
             // Where the specular term could be infinite or NaN, it is computed: it decides
             // the bits (R·L can round past 1, which an infinite exponent takes to infinity).
             // Its sign does not matter: a ±0 term leaves the positive ambient sum alone.
-            let hidden = only_combined
-                && effects.contains(Effects::SHADOW)
-                && light.shadowed
-                && term.scale == 0.0
-                && shading.r_dot_l <= 1.0
-                && shading.exponent >= 0.0
-                && shading.strength.is_finite();
-            term.specular = if lit && !hidden {
+            let hidden = || {
+                only_combined
+                    && effects.contains(Effects::SHADOW)
+                    && light.shadowed
+                    && term.scale == 0.0
+                    && shading.r_dot_l <= 1.0
+                    && shading.exponent >= 0.0
+                    && shading.strength.is_finite()
+            };
+            term.specular = if lit && !hidden() {
                 shading.strength * phong(shading.r_dot_l, shading.exponent)
             } else {
                 0.0
