@@ -17,7 +17,7 @@ use crate::command::{Command, Job, Unit};
 use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
-use crate::raster::{rasterize, sample_position};
+use crate::raster::{rasterize, sample_position, Quad};
 use crate::scheme::{
     Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, ViewContext, VisibleQuads,
 };
@@ -234,66 +234,34 @@ fn geometry_command(
     for vertex in triangle.vertices {
         log.touch(Stream::TriangleData, vertex as u64 * VERTEX_BYTES / LINE_BYTES, false);
     }
-    // Rasterize and depth-test; opaque surfaces write depth at once (early-z).
-    let quads = &mut scratch.quads;
-    quads.clear();
+    // Rasterize and depth-test; opaque surfaces write depth at once (early-z). The sample
+    // count and the test are the unit's: each pairing gets its own compiled loop, so that a
+    // fragment runs neither the other test nor a loop over a sample count it does not have.
+    scratch.quads.clear();
+    let rect = buffer.rect;
+    let mut test = EarlyDepthTest {
+        setup,
+        offsets: ctx.offsets,
+        layout: &ctx.layout,
+        unit,
+        counts_quads: !prepass,
+        writes_depth: opaque && (prepass || !ctx.z_prepass),
+        keeps_quads: shading || visibility,
+        buffer,
+        raster,
+        log,
+        quads: &mut scratch.quads,
+        depth_written: false,
+    };
+    let equal_to_prepass = |z, prim, buf_z, buf_prim| z == buf_z && prim == buf_prim;
+    match (samples, ctx.z_prepass && !prepass && opaque) {
+        (1, false) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, 1, depth_passes)),
+        (1, true) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, 1, equal_to_prepass)),
+        (_, false) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, samples, depth_passes)),
+        (_, true) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, samples, equal_to_prepass)),
+    }
+    let mut depth_written = test.depth_written;
     let layout = ctx.layout;
-    let writes_depth = opaque && (prepass || !ctx.z_prepass);
-    let mut depth_written = false;
-    rasterize(setup, buffer.rect, ctx.offsets, |q| {
-        if !prepass {
-            raster.quads_rasterized += 1;
-        }
-        // Each covered sample's depth, four lanes at a time (pure: the tests and writes below
-        // keep their order).
-        let mut depths = [[0f32; 4]; 8];
-        for (s, &offset) in ctx.offsets.iter().enumerate() {
-            if q.coverage & sample_lanes(s, samples) != 0 {
-                let (sx, sy) = sample_position(q.x, q.y, offset);
-                depths[s] = setup.depths(setup.quad_edges(sx, sy));
-            }
-        }
-        let mut passed = 0u32;
-        for lane in 0..4u32 {
-            let lane_bits = q.coverage >> (lane as usize * samples) & ((1 << samples) - 1);
-            if lane_bits == 0 {
-                continue;
-            }
-            let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
-            let mut wrote = false;
-            for (s, depths) in depths[..samples].iter().enumerate() {
-                if lane_bits & (1 << s) == 0 {
-                    continue;
-                }
-                let z = depths[lane as usize];
-                let i = buffer.index(x, y, s);
-                let pass_test = if ctx.z_prepass && !prepass && opaque {
-                    z == buffer.depth[i] && setup.prim == buffer.prim[i]
-                } else {
-                    depth_passes(z, setup.prim, buffer.depth[i], buffer.prim[i])
-                };
-                if pass_test {
-                    passed |= 1 << (lane as usize * samples + s);
-                    if writes_depth {
-                        buffer.write_depth(i, z, setup.prim, unit.tri);
-                        wrote = true;
-                    }
-                }
-            }
-            log.touch(Stream::Depth, layout.depth_line(unit.view, x, y), wrote);
-            depth_written |= wrote;
-        }
-        if passed != 0 && (shading || visibility) {
-            quads.push((
-                ShadeQuad {
-                    x: q.x,
-                    y: q.y,
-                    lanes: lane_mask(passed, samples),
-                },
-                passed,
-            ));
-        }
-    });
     if visibility && !scratch.quads.is_empty() {
         let unit_ctx = UnitContext {
             view_ctx: ctx.view(unit.view),
@@ -338,6 +306,84 @@ fn geometry_command(
     // The tile's farthest depth only moves where depth was written.
     if depth_written {
         buffer.update_max_depth();
+    }
+}
+
+/// The early depth test of one unit's quads, as the raster emits them: each covered
+/// sample's test and (for opaque surfaces) write, the tile's depth accesses, and the quads
+/// with a passing sample.
+struct EarlyDepthTest<'a> {
+    setup: &'a SetupTriangle,
+    offsets: &'a [[i64; 2]],
+    layout: &'a FramebufferLayout,
+    unit: Unit,
+    /// A pre-pass's quads are not counted: the pass that shades them counts them.
+    counts_quads: bool,
+    writes_depth: bool,
+    /// Keep the passing quads (for shading, or for the visibility pass).
+    keeps_quads: bool,
+    buffer: &'a mut SampleBuffer,
+    raster: &'a mut RasterStats,
+    log: &'a mut AccessLog,
+    quads: &'a mut Vec<(ShadeQuad, u32)>,
+    depth_written: bool,
+}
+
+impl EarlyDepthTest<'_> {
+    /// Tests one quad's covered samples with `passes(z, prim, buffer z, buffer prim)`.
+    /// Inlined into each of the caller's (sample count, test) pairings.
+    #[inline(always)]
+    fn quad(&mut self, q: Quad, samples: usize, passes: impl Fn(f32, u32, f32, u32) -> bool) {
+        let setup = self.setup;
+        if self.counts_quads {
+            self.raster.quads_rasterized += 1;
+        }
+        // Each covered sample's depth, four lanes at a time (pure: the tests and writes below
+        // keep their order).
+        let mut depths = [[0f32; 4]; 8];
+        for (s, &offset) in self.offsets[..samples].iter().enumerate() {
+            if q.coverage & sample_lanes(s, samples) != 0 {
+                let (sx, sy) = sample_position(q.x, q.y, offset);
+                depths[s] = setup.depths(setup.quad_edges(sx, sy));
+            }
+        }
+        let buffer = &mut *self.buffer;
+        let mut passed = 0u32;
+        for lane in 0..4u32 {
+            let lane_bits = q.coverage >> (lane as usize * samples) & ((1 << samples) - 1);
+            if lane_bits == 0 {
+                continue;
+            }
+            let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
+            let mut wrote = false;
+            for (s, depths) in depths[..samples].iter().enumerate() {
+                if lane_bits & (1 << s) == 0 {
+                    continue;
+                }
+                let z = depths[lane as usize];
+                let i = buffer.index(x, y, s);
+                if passes(z, setup.prim, buffer.depth[i], buffer.prim[i]) {
+                    passed |= 1 << (lane as usize * samples + s);
+                    if self.writes_depth {
+                        buffer.write_depth(i, z, setup.prim, self.unit.tri);
+                        wrote = true;
+                    }
+                }
+            }
+            self.log
+                .touch(Stream::Depth, self.layout.depth_line(self.unit.view, x, y), wrote);
+            self.depth_written |= wrote;
+        }
+        if passed != 0 && self.keeps_quads {
+            self.quads.push((
+                ShadeQuad {
+                    x: q.x,
+                    y: q.y,
+                    lanes: lane_mask(passed, samples),
+                },
+                passed,
+            ));
+        }
     }
 }
 
