@@ -65,6 +65,10 @@ pub fn overlaps(t: &SetupTriangle, r: Rect) -> bool {
 /// outside every interval are never visited. The intervals are exact: each edge's bound is
 /// kept as a quotient and remainder ([`ColumnSeries`]) and stepped from row to row without
 /// dividing. The result is exactly the per-sample edge test's (tested against it).
+///
+/// Inlined, so that a caller that knows its sample count (one, mostly) gets loops over
+/// the samples that unroll, and `emit` inlined into them.
+#[inline(always)]
 pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: impl FnMut(Quad)) {
     let x0 = t.bbox[0].max(tile.x0) & !1;
     let y0 = t.bbox[1].max(tile.y0) & !1;

@@ -255,8 +255,8 @@ fn geometry_command(
     };
     let equal_to_prepass = |z, prim, buf_z, buf_prim| z == buf_z && prim == buf_prim;
     match (samples, ctx.z_prepass && !prepass && opaque) {
-        (1, false) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, 1, depth_passes)),
-        (1, true) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, 1, equal_to_prepass)),
+        (1, false) => rasterize(setup, rect, &ctx.offsets[..1], |q| test.quad(q, 1, depth_passes)),
+        (1, true) => rasterize(setup, rect, &ctx.offsets[..1], |q| test.quad(q, 1, equal_to_prepass)),
         (_, false) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, samples, depth_passes)),
         (_, true) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, samples, equal_to_prepass)),
     }
