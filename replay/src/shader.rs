@@ -627,7 +627,7 @@ impl ShaderEnv<'_> {
             surface.occlusion = 1.0 + strength * (ao - 1.0);
         }
         let emissive = Vec3::from_array(maps.emissive);
-        if emissive != Vec3::ZERO {
+        if !is_zero(emissive) {
             surface.emission = match maps.emissive_texture {
                 Some(texture) => {
                     blocks.take(Block::EmissiveTextured);
@@ -724,7 +724,7 @@ pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4
     if surface.occlusion != 1.0 {
         c -= albedo.truncate() * (AMBIENT * (1.0 - surface.occlusion));
     }
-    if surface.emission != Vec3::ZERO {
+    if !is_zero(surface.emission) {
         c += surface.emission;
     }
     let mapped = c / (Vec3::ONE + c);
@@ -734,6 +734,13 @@ pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4
         finite_or_zero(mapped.z),
     );
     mapped.extend(finite_or_zero(albedo.w))
+}
+
+/// `v == Vec3::ZERO` (either sign of zero; NaN is not zero), on the bits: one test where
+/// the float comparisons branch per component (it runs per lane, and is mostly true).
+#[inline(always)]
+fn is_zero(v: Vec3) -> bool {
+    (v.x.to_bits() | v.y.to_bits() | v.z.to_bits()) << 1 == 0
 }
 
 fn finite_or_zero(x: f32) -> f32 {
@@ -843,6 +850,31 @@ mod tests {
             }
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
             prop_assert_eq!(reads(&quad_log), reads(&lane_log));
+        }
+    }
+
+    /// `is_zero` is `== Vec3::ZERO`: at both zeros, the smallest subnormals, NaN of either
+    /// sign, the infinities and ordinary values, in every combination of components.
+    #[test]
+    fn is_zero_is_comparison_with_zero() {
+        let values = [
+            0.0,
+            -0.0,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            1.0,
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for x in values {
+            for y in values {
+                for z in values {
+                    let v = Vec3::new(x, y, z);
+                    assert_eq!(is_zero(v), v == Vec3::ZERO, "{v:?}");
+                }
+            }
         }
     }
 }
