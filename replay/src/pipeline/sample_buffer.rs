@@ -79,8 +79,24 @@ impl SampleBuffer {
                 .any(|&p| p != NO_PRIMITIVE)
     }
 
+    /// Eight running maxima, each a compare and select (one SIMD `max` instruction), so
+    /// that the scan runs four or eight samples at a time: a fold through `f32::max` is one
+    /// chain of dependent steps, each with a NaN check. The order changes at most the sign
+    /// of a zero maximum, which the cull's `>` does not see; a NaN (never written) loses
+    /// every comparison, so it is skipped as `max` skips it. Not inlined: it runs once per
+    /// unit, and its loops would crowd the per-quad code it is called beside.
+    #[inline(never)]
     pub fn update_max_depth(&mut self) {
-        self.max_depth = self.depth.iter().copied().fold(0.0f32, f32::max);
+        let larger = |m: f32, d: f32| if d > m { d } else { m };
+        let mut lanes = [0.0f32; 8];
+        let chunks = self.depth.chunks_exact(lanes.len());
+        let rest = chunks.remainder();
+        for chunk in chunks {
+            for (m, &d) in lanes.iter_mut().zip(chunk) {
+                *m = larger(*m, d);
+            }
+        }
+        self.max_depth = lanes.into_iter().chain(rest.iter().copied()).fold(0.0, larger);
     }
 }
 
@@ -89,4 +105,29 @@ impl SampleBuffer {
 #[inline]
 pub fn depth_passes(z: f32, prim: u32, buf_z: f32, buf_prim: u32) -> bool {
     z < buf_z || (z == buf_z && prim < buf_prim)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The eight-lane scan finds the value `fold(0.0, f32::max)` finds, over any number
+        /// of samples (a remainder too), with NaN, both zeros and negative depths among them.
+        #[test]
+        fn max_depth_is_the_folded_maximum(
+            depth in prop::collection::vec(
+                prop_oneof![-2.0f32..2.0, Just(0.0), Just(-0.0), Just(f32::NAN), Just(1.0)],
+                0..80,
+            ),
+        ) {
+            let rect = Rect { x0: 0, y0: 0, x1: depth.len() as u32, y1: 1 };
+            let mut buffer = SampleBuffer::new(0, rect, 1);
+            buffer.depth.copy_from_slice(&depth);
+            buffer.update_max_depth();
+            let folded = depth.iter().copied().fold(0.0f32, f32::max);
+            prop_assert_eq!(buffer.max_depth, folded, "{:?}", depth);
+        }
+    }
 }
