@@ -720,20 +720,19 @@ fn phong(r_dot_l: f32, exponent: f32) -> f32 {
 pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4 {
     blocks.take(Block::Compose);
     let albedo = surface.albedo;
-    let mut c = albedo.truncate() * lighting;
+    // The colour's three channels as one SIMD register (its fourth lane unused): each lane
+    // runs the scalar channel's IEEE operations, so the bits are the scalar ones.
+    let rgb = |v: Vec3| f32x4::new([v.x, v.y, v.z, 0.0]);
+    let base = rgb(albedo.truncate());
+    let mut c = base * rgb(lighting);
     if surface.occlusion != 1.0 {
-        c -= albedo.truncate() * (AMBIENT * (1.0 - surface.occlusion));
+        c -= base * f32x4::splat(AMBIENT * (1.0 - surface.occlusion));
     }
     if !is_zero(surface.emission) {
-        c += surface.emission;
+        c += rgb(surface.emission);
     }
-    let mapped = c / (Vec3::ONE + c);
-    let mapped = Vec3::new(
-        finite_or_zero(mapped.x),
-        finite_or_zero(mapped.y),
-        finite_or_zero(mapped.z),
-    );
-    mapped.extend(finite_or_zero(albedo.w))
+    let [r, g, b, _] = finite_or_zero_lanes(c / (f32x4::ONE + c)).to_array();
+    Vec4::new(r, g, b, finite_or_zero(albedo.w))
 }
 
 /// `v == Vec3::ZERO` (either sign of zero; NaN is not zero), on the bits: one test where
@@ -749,6 +748,15 @@ fn finite_or_zero(x: f32) -> f32 {
     } else {
         0.0
     }
+}
+
+/// [`finite_or_zero`] of four lanes: the same comparisons as selects, so that `-0.0` stays
+/// `-0.0` as `clamp` leaves it (a SIMD `max` with 0 would not).
+#[inline(always)]
+fn finite_or_zero_lanes(x: f32x4) -> f32x4 {
+    let (zero, one) = (f32x4::ZERO, f32x4::ONE);
+    let clamped = x.simd_lt(zero).bitselect(zero, x.simd_gt(one).bitselect(one, x));
+    x.is_finite().bitselect(clamped, zero)
 }
 
 #[cfg(test)]
@@ -850,6 +858,50 @@ mod tests {
             }
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
             prop_assert_eq!(reads(&quad_log), reads(&lane_log));
+        }
+    }
+
+    fn channel() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            -4.0f32..4.0,
+            Just(0.0f32),
+            Just(-0.0f32),
+            Just(1.0f32),
+            Just(f32::INFINITY),
+            Just(f32::NEG_INFINITY),
+            Just(f32::NAN),
+            Just(f32::MAX),
+            -1e-30f32..1e-30,
+        ]
+    }
+
+    proptest! {
+        /// `compose`, three channels in one SIMD register, gives the bits of the scalar
+        /// channel-by-channel definition, at both zeros, NaN, infinities and overflow.
+        #[test]
+        fn compose_is_the_scalar_definition(
+            albedo in prop::array::uniform4(channel()),
+            lighting in prop::array::uniform3(channel()),
+            emission in prop::array::uniform3(channel()),
+            occlusion in prop_oneof![Just(1.0f32), channel()],
+        ) {
+            let surface = Surface {
+                albedo: Vec4::from_array(albedo),
+                emission: Vec3::from_array(emission),
+                occlusion,
+            };
+            let lighting = Vec3::from_array(lighting);
+            let mut c = surface.albedo.truncate() * lighting;
+            if occlusion != 1.0 {
+                c -= surface.albedo.truncate() * (AMBIENT * (1.0 - occlusion));
+            }
+            if surface.emission != Vec3::ZERO {
+                c += surface.emission;
+            }
+            let mapped = c / (Vec3::ONE + c);
+            let scalar = [mapped.x, mapped.y, mapped.z, surface.albedo.w].map(finite_or_zero);
+            let composed = compose(&surface, lighting, &mut BlockSet::new(0)).to_array();
+            prop_assert_eq!(composed.map(f32::to_bits), scalar.map(f32::to_bits));
         }
     }
 
