@@ -57,20 +57,31 @@ impl BlockSet {
 
     pub fn union_with(&mut self, other: &BlockSet) {
         self.fixed |= other.fixed;
-        for (a, b) in self.lights.iter_mut().zip(&other.lights) {
-            *a |= *b;
+        // Once per lane, as `clear`: one light is one `or`, not a loop.
+        match (self.lights.as_mut_slice(), other.lights.as_slice()) {
+            ([a], [b]) => *a |= *b,
+            (lights, others) => {
+                for (a, b) in lights.iter_mut().zip(others) {
+                    *a |= *b;
+                }
+            }
         }
     }
 
     /// The set's cost, given that of its light-independent blocks (`fixed_cost(self.fixed)`).
     fn cost_with_fixed(&self, fixed: BlockCost) -> BlockCost {
-        let mut c = fixed;
-        for &flags in &self.lights {
+        let add = |c: BlockCost, flags: &LightBlocks| {
             let b = LIGHT_COSTS[flags.bits() as usize];
-            c.alu += b.alu;
-            c.tex += b.tex;
+            BlockCost {
+                alu: c.alu + b.alu,
+                tex: c.tex + b.tex,
+            }
+        };
+        // Once per useful lane: one light is one lookup, not a loop.
+        match self.lights.as_slice() {
+            [only] => add(fixed, only),
+            lights => lights.iter().fold(fixed, add),
         }
-        c
     }
 }
 
