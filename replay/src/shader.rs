@@ -560,15 +560,11 @@ impl ShaderEnv<'_> {
     /// Ambient plus every light's term, always summed in light order (so that a scheme that
     /// recomputes every term per pixel reproduces `per-pixel` bit for bit).
     pub fn combine(&self, terms: &[LightTerm]) -> Vec3 {
-        let add = |total: Vec3, (light, t): (&ShadingLight, &LightTerm)| {
-            total + light.radiance * (t.scale * (t.diffuse + t.specular))
-        };
-        let ambient = Vec3::splat(AMBIENT);
-        // Once per lane: one light (the usual scene) is one term added, not a loop.
-        match (self.lights, terms) {
-            ([light], [t]) => add(ambient, (light, t)),
-            (lights, terms) => lights.iter().zip(terms).fold(ambient, add),
+        let mut total = Vec3::splat(AMBIENT);
+        for (light, t) in self.lights.iter().zip(terms) {
+            total += light.radiance * (t.scale * (t.diffuse + t.specular));
         }
+        total
     }
 
     /// The tangent-space normal map's normal: the texel (in [0, 1], scaled in x and y by
