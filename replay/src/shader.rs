@@ -311,17 +311,19 @@ impl ShaderEnv<'_> {
         let (exponent, strength) = self.phong_parameters(material, surface, blocks, log);
         let mut terms = [LightTerm::default(); QUAD_LIGHTS];
         let terms = &mut terms[..self.lights.len()];
-        match list {
-            None => {
-                for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
+        match (list, &mut *terms, blocks.lights.as_mut_slice()) {
+            // One light (the usual scene): its term without a loop around it, whose set-up
+            // per light costs a lane more than the loop's one step.
+            (None, [term], [flags]) => self.lane_term(quad, l, 0, (exponent, strength), term, flags, log),
+            (None, terms, lights) => {
+                for (k, (term, flags)) in terms.iter_mut().zip(lights).enumerate() {
                     self.lane_term(quad, l, k, (exponent, strength), term, flags, log);
                 }
             }
-            Some(list) => {
+            (Some(list), terms, lights) => {
                 for &k in list {
                     let k = k as usize;
-                    let (term, flags) = (&mut terms[k], &mut blocks.lights[k]);
-                    self.lane_term(quad, l, k, (exponent, strength), term, flags, log);
+                    self.lane_term(quad, l, k, (exponent, strength), &mut terms[k], &mut lights[k], log);
                 }
             }
         }
