@@ -264,7 +264,6 @@ fn geometry_command(
         (_, true) => rasterize(setup, rect, ctx.offsets, |q| test.quad(q, samples, equal_to_prepass)),
     }
     let mut depth_written = test.depth_written;
-    let layout = ctx.layout;
     if visibility && !scratch.quads.is_empty() {
         let unit_ctx = UnitContext {
             view_ctx: ctx.view(unit.view),
@@ -277,7 +276,7 @@ fn geometry_command(
             tile: unit.tile,
             rect: buffer.rect,
             samples,
-            layout,
+            layout: ctx.layout,
         };
         out.account(v, log, |acc| scheme_job.visible_quads(&unit_ctx, &visible, acc));
     }
@@ -304,7 +303,7 @@ fn geometry_command(
             quads: &scratch.quads,
             colors: &scratch.colors,
         };
-        depth_written |= merge(&input, buffer, &layout, raster, log);
+        depth_written |= merge(&input, buffer, &ctx.layout, raster, log);
     }
     // The tile's farthest depth only moves where depth was written.
     if depth_written {
