@@ -15,7 +15,7 @@ use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, Stream};
 use crate::raster::{rasterize, sample_offsets, Rect};
 use crate::texture::{level_lines, BLOCK};
-use crate::vertex_stage::setup_view;
+use crate::vertex_stage::{setup_view, SetupTriangle};
 
 /// Rows of the map rasterized per parallel work item.
 const BAND: u32 = 64;
@@ -82,12 +82,14 @@ impl ShadowMap {
         let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
         let view_projection = proj * view;
         let (tris, vstats) = setup_view(geometry, &vec![true; materials], view_projection, size, size);
+        let by_band = band_candidates(&tris, size);
         // Cleared in parallel: the first touch of 16 MiB is itself worth spreading.
         let mut depth: Vec<f32> = (0..size * size).into_par_iter().map(|_| 1.0).collect();
         let texels_written: u64 = depth
             .par_chunks_mut((BAND * size) as usize)
+            .zip(by_band)
             .enumerate()
-            .map(|(band, depth)| {
+            .map(|(band, (depth, candidates))| {
                 let band = band as u32;
                 let rect = Rect {
                     x0: 0,
@@ -96,7 +98,8 @@ impl ShadowMap {
                     y1: ((band + 1) * BAND).min(size),
                 };
                 let offsets = sample_offsets(1);
-                for t in tris.iter().filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
+                let candidates = candidates.iter().map(|&i| &tris[i as usize]);
+                for t in candidates.filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
                     rasterize(t, rect, offsets, |q| {
                         // Every lane's depth at once (pure: uncovered lanes are dropped).
                         let (px, py) = crate::raster::pixel_center(q.x, q.y);
@@ -403,6 +406,21 @@ impl ShadowMap {
     }
 }
 
+/// Per band of the map, the triangles whose bounding boxes reach its rows, in submission
+/// order: each band then visits only those (the band's own test still decides), instead of
+/// every triangle of the scene once per band.
+fn band_candidates(tris: &[SetupTriangle], size: u32) -> Vec<Vec<u32>> {
+    let mut by_band = vec![Vec::new(); size.div_ceil(BAND) as usize];
+    for (i, t) in tris.iter().enumerate() {
+        let first = (t.bbox[1] / BAND) as usize;
+        let last = ((t.bbox[3] / BAND) as usize).min(by_band.len().saturating_sub(1));
+        for band in by_band.get_mut(first..=last).unwrap_or_default() {
+            band.push(i as u32);
+        }
+    }
+    by_band
+}
+
 /// (min, max) of each BLOCK x BLOCK block of a `size`² map; a block holding a NaN gets the
 /// whole range, so that no comparison with it is ever taken as decided.
 fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
@@ -540,6 +558,33 @@ mod tests {
             texel_depth: 1.0 / size as f32,
             stats: ShadowPassStats::default(),
             receivers: Mutex::new(Vec::new()),
+        }
+    }
+
+    proptest! {
+        /// Listing triangles by band first changes nothing: each band's own test picks,
+        /// from its candidates, exactly the triangles it picks from all of them, in
+        /// submission order, on a map whose size is not a multiple of the band.
+        #[test]
+        fn band_candidates_hold_every_triangle_the_band_draws(
+            corners in prop::collection::vec(prop::array::uniform3((-1.3f32..1.3, -1.3f32..1.3)), 1..40)
+        ) {
+            use crate::vertex_stage::setup_clip_triangle;
+            let size = 3 * BAND + 5;
+            let (mut tris, mut stats) = (Vec::new(), shadetrace_formats::results::VertexStats::default());
+            for (i, c) in corners.iter().enumerate() {
+                let verts = c.map(|(x, y)| glam::Vec4::new(x, y, 0.5, 1.0));
+                setup_clip_triangle(i as u32, verts, true, (size, size), &mut tris, &mut stats);
+            }
+            let by_band = band_candidates(&tris, size);
+            prop_assert_eq!(by_band.len() as u32, size.div_ceil(BAND));
+            for (band, candidates) in by_band.iter().enumerate() {
+                let (y0, y1) = (band as u32 * BAND, ((band as u32 + 1) * BAND).min(size));
+                let draws = |t: &SetupTriangle| t.bbox[1] < y1 && t.bbox[3] >= y0;
+                let picked: Vec<u32> = candidates.iter().copied().filter(|&i| draws(&tris[i as usize])).collect();
+                let expected: Vec<u32> = (0..tris.len() as u32).filter(|&i| draws(&tris[i as usize])).collect();
+                prop_assert_eq!(picked, expected, "band {}", band);
+            }
         }
     }
 
