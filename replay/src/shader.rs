@@ -140,8 +140,30 @@ struct Directional {
     strength: f32,
 }
 
+impl Directional {
+    /// The specular term, on the `lit` side where not `hidden`.
+    #[inline(always)]
+    fn specular(&self, lit: bool, hidden: impl FnOnce() -> bool) -> f32 {
+        if lit && !hidden() {
+            self.strength * phong(self.r_dot_l, self.exponent)
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether a shadow visibility of `scale` hides the specular term from the colour: a
+    /// full shadow, with a power in `[0, 1]` and a finite strength, makes
+    /// `0 * (diffuse + specular)` zero either way.
+    #[inline(always)]
+    fn hidden_by_shadow(&self, scale: f32) -> bool {
+        scale == 0.0 && self.r_dot_l <= 1.0 && self.exponent >= 0.0 && self.strength.is_finite()
+    }
+}
+
 /// The most lights a [`QuadLighting`] holds; a scene with more lights its quads lane by lane.
 const QUAD_LIGHTS: usize = 4;
+/// The indices of a [`QuadLighting`]'s lights: a list of every light.
+const EVERY_QUAD_LIGHT: [u32; QUAD_LIGHTS] = [0, 1, 2, 3];
 
 /// The arithmetic of a quad's lighting, done four lanes at a time
 /// ([`ShaderEnv::quad_lighting`]): each lane's directions, and per directional light each
@@ -155,6 +177,9 @@ pub struct QuadLighting {
     n_dot_l: [[f32; 4]; QUAD_LIGHTS],
     r_dot_l: [[f32; 4]; QUAD_LIGHTS],
     footprints: [[Option<PcfFootprint>; 4]; QUAD_LIGHTS],
+    /// Every light is directional, so the four lanes take the same blocks
+    /// ([`ShaderEnv::quad_colors`]).
+    directional_only: bool,
 }
 
 /// The fine part of a point's colour: albedo, and what the occlusion and emissive maps add.
@@ -277,6 +302,10 @@ impl ShaderEnv<'_> {
             n: n_lanes[l],
             r: r_lanes[l],
         });
+        quad.directional_only = self
+            .lights
+            .iter()
+            .all(|light| matches!(light.kind, LightKind::Directional { .. }));
         // Only the directional lights' entries are written, and only they are read.
         for (k, light) in self.lights.iter().enumerate() {
             if let LightKind::Directional { .. } = light.kind {
@@ -328,6 +357,96 @@ impl ShaderEnv<'_> {
             }
         }
         self.combine(terms)
+    }
+
+    /// The four lanes' colours from their quad's arithmetic: each lane's
+    /// [`Self::lane_lighting`], [`Self::surface`] and [`compose`], where the lanes take the
+    /// same blocks (every light directional: a local light's range test differs from lane
+    /// to lane). Each lane's reads stay its own, lane after lane in the lane's order (Phong
+    /// map, shadow footprints, surface maps); the rest runs four lanes at a time, with each
+    /// lane's operations. `blocks` (cleared by the caller) gets what each lane takes. None,
+    /// with nothing read or taken, where lanes could differ.
+    pub fn quad_colors(
+        &self,
+        quad: &QuadLighting,
+        material: u32,
+        points: &[SurfacePoint; 4],
+        list: Option<&[u32]>,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Option<[Vec4; 4]> {
+        if !quad.directional_only {
+            return None;
+        }
+        // The lights each lane evaluates, in its order; one left out of the list keeps the
+        // default term (all zero), as in the lanes'.
+        let evaluated = list.unwrap_or(&EVERY_QUAD_LIGHT[..self.lights.len()]);
+        let mut listed = [false; QUAD_LIGHTS];
+        for &k in evaluated {
+            listed[k as usize] = true;
+        }
+        // Each lane's reads, in the lane's order: its shadow visibilities (1 where a light
+        // is unshadowed, or no footprint falls in the map; a light left out of the list adds
+        // `1 * (0 + 0)`, the zero its default term adds) and its surface.
+        let mut scale = [[1.0f32; 4]; QUAD_LIGHTS];
+        // A material that samples no texture has the same Phong parameters and surface at
+        // every lane: lane 0's, which takes their blocks.
+        let maps = self.maps.of(material);
+        let textured = self.materials[material as usize].base_color_texture.is_some()
+            || maps.metallic_roughness.is_some()
+            || maps.occlusion.is_some()
+            || maps.emissive_texture.is_some();
+        let mut phong_parameters = [(0.0, 0.0); 4];
+        let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
+        for (l, at) in points.iter().enumerate() {
+            if l == 0 || textured {
+                blocks.take(Block::CoarseSetup);
+                phong_parameters[l] = self.phong_parameters(material, at, blocks, log);
+            } else {
+                phong_parameters[l] = phong_parameters[0];
+            }
+            for &k in evaluated {
+                let k = k as usize;
+                if let (true, Some(map), Some(footprint)) =
+                    (self.lights[k].shadowed, self.shadow, quad.footprints[k][l])
+                {
+                    scale[k][l] = map.filter(footprint, log);
+                }
+            }
+            surfaces[l] = match l == 0 || textured {
+                true => self.surface(material, at, blocks, log),
+                false => surfaces[0],
+            };
+        }
+        // Ambient plus every light's term in light order, as `combine` sums them.
+        let mut total = Vec3x4::splat(Vec3::splat(AMBIENT));
+        for (k, light) in self.lights.iter().enumerate() {
+            let (mut diffuse, mut specular) = ([0.0f32; 4], [0.0f32; 4]);
+            if listed[k] {
+                blocks.lights[k] |= LightBlocks::DIFFUSE | LightBlocks::SPECULAR;
+                if light.shadowed && self.shadow.is_some() {
+                    blocks.lights[k] |= LightBlocks::SHADOW;
+                }
+                for l in 0..4 {
+                    let (exponent, strength) = phong_parameters[l];
+                    let shading = Directional {
+                        n_dot_l: quad.n_dot_l[k][l],
+                        r_dot_l: quad.r_dot_l[k][l],
+                        exponent,
+                        strength,
+                    };
+                    let lit = shading.n_dot_l > 0.0;
+                    diffuse[l] = if lit { shading.n_dot_l } else { 0.0 };
+                    // Only a shadowed light's visibility can be 0.
+                    let hidden = || shading.hidden_by_shadow(scale[k][l]);
+                    specular[l] = shading.specular(lit, hidden);
+                }
+            }
+            let weight = f32x4::new(scale[k]) * (f32x4::new(diffuse) + f32x4::new(specular));
+            total = total + Vec3x4::splat(light.radiance).scale(weight);
+        }
+        blocks.take(Block::Compose);
+        Some(compose_quad(&surfaces, total))
     }
 
     /// Light `k`'s term at lane `l` of a quad: [`Self::light_term`] from the quad's arithmetic.
@@ -521,16 +640,9 @@ impl ShaderEnv<'_> {
                 only_combined
                     && effects.contains(Effects::SHADOW)
                     && light.shadowed
-                    && term.scale == 0.0
-                    && shading.r_dot_l <= 1.0
-                    && shading.exponent >= 0.0
-                    && shading.strength.is_finite()
+                    && shading.hidden_by_shadow(term.scale)
             };
-            term.specular = if lit && !hidden() {
-                shading.strength * phong(shading.r_dot_l, shading.exponent)
-            } else {
-                0.0
-            };
+            term.specular = shading.specular(lit, hidden);
         }
     }
 
@@ -619,7 +731,7 @@ impl ShaderEnv<'_> {
 
     /// The fine surface at `at`: [`ShaderEnv::albedo`], and the occlusion and emission of
     /// the material's maps (nothing more for a material without them).
-    #[inline]
+    #[inline(always)]
     pub fn surface(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Surface {
         let mut surface = Surface::of_albedo(self.albedo(material, at.uv, at.duv_dx, at.duv_dy, blocks, log));
         let maps = self.maps.of(material);
@@ -735,6 +847,31 @@ pub fn compose(surface: &Surface, lighting: Vec3, blocks: &mut BlockSet) -> Vec4
     }
     let [r, g, b, _] = finite_or_zero_lanes(c / (f32x4::ONE + c)).to_array();
     Vec4::new(r, g, b, finite_or_zero(albedo.w))
+}
+
+/// [`compose`] of four lanes at once, each lane's surface with its lighting (one lane per
+/// SIMD lane, by channel): the same operations lane by lane, the occlusion and emission
+/// terms selected where each lane has them.
+#[inline(always)]
+fn compose_quad(surfaces: &[Surface; 4], lighting: Vec3x4) -> [Vec4; 4] {
+    let albedo = Vec3x4::from_lanes(&surfaces.map(|s| s.albedo.truncate())).components();
+    let lighting = lighting.components();
+    let occlusion = f32x4::new(surfaces.map(|s| s.occlusion));
+    let occluded = occlusion.simd_ne(f32x4::ONE);
+    let darkening = f32x4::splat(AMBIENT) * (f32x4::ONE - occlusion);
+    let emits = f32x4::new(surfaces.map(|s| if is_zero(s.emission) { 0.0 } else { 1.0 })).simd_ne(f32x4::ZERO);
+    let emission = Vec3x4::from_lanes(&surfaces.map(|s| s.emission)).components();
+    let [r, g, b]: [[f32; 4]; 3] = std::array::from_fn(|ch| {
+        let mut c = albedo[ch] * lighting[ch];
+        if occluded.to_bitmask() != 0 {
+            c = occluded.bitselect(c - albedo[ch] * darkening, c);
+        }
+        if emits.to_bitmask() != 0 {
+            c = emits.bitselect(c + emission[ch], c);
+        }
+        finite_or_zero_lanes(c / (f32x4::ONE + c)).to_array()
+    });
+    std::array::from_fn(|l| Vec4::new(r[l], g[l], b[l], finite_or_zero(surfaces[l].albedo.w)))
 }
 
 /// `v == Vec3::ZERO` (either sign of zero; NaN is not zero), on the bits: one test where
@@ -859,6 +996,118 @@ mod tests {
                 prop_assert_eq!(&quad_blocks, &lane_blocks);
             }
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
+            prop_assert_eq!(reads(&quad_log), reads(&lane_log));
+        }
+    }
+
+    proptest! {
+        // As above: the rare draws need many cases (a fraction of a second).
+        #![proptest_config(ProptestConfig::with_cases(4096))]
+
+        /// A quad shaded together (`quad_colors`) gives each lane the colour bits, the blocks
+        /// and the reads, in order, of the lane's own lighting, surface and compose: with and
+        /// without a light list, a base colour texture and each map but the normal map or
+        /// not, and Phong parameters out of range. A quad lit by a point
+        /// light is left to its lanes, with nothing read or taken.
+        #[test]
+        fn quad_colors_are_each_lanes_own(
+            eye in vec3(),
+            positions in prop::array::uniform4(vec3()),
+            normals in prop::array::uniform4(vec3()),
+            uvs in prop::array::uniform4((-2.0f32..2.0, -2.0f32..2.0)),
+            derivatives in prop::array::uniform4(-0.5f32..0.5),
+            // Base colour texture, metallic-roughness, occlusion and emissive maps.
+            maps in prop::array::uniform4(any::<bool>()),
+            emissive in prop_oneof![Just([0.0f32; 3]), Just([0.5, 0.2, 0.0])],
+            list in prop_oneof![Just(None), Just(Some(vec![0u32])), Just(Some(vec![1u32])), Just(Some(vec![0u32, 1]))],
+            point_light in any::<bool>(),
+            shadow_map in any::<bool>(),
+            base_color in prop::array::uniform4(prop_oneof![0.0f32..1.0, Just(0.0), Just(-0.0)]),
+            specular_exponent in prop_oneof![0.0f32..200.0, Just(-3.0), Just(f32::INFINITY), Just(f32::NAN)],
+            specular_strength in prop_oneof![0.0f32..2.0, Just(-1.0), Just(f32::INFINITY), Just(f32::NAN)],
+        ) {
+            let [textured, phong_map, occlusion_map, emissive_map] = maps;
+            let material = Material {
+                name: String::new(),
+                base_color,
+                base_color_texture: textured.then_some(0),
+                specular_exponent,
+                specular_strength,
+                alpha: AlphaMode::Opaque,
+                double_sided: true,
+            };
+            let noise = |seed: u32, left: u8| shadetrace_formats::Texture {
+                name: String::new(),
+                width: 16,
+                height: 16,
+                wrap_u: shadetrace_formats::Wrap::Repeat,
+                wrap_v: shadetrace_formats::Wrap::ClampToEdge,
+                // One value on the left half (black colour, white data), so that a quad's
+                // lanes can emit or not, and be occluded or not.
+                rgba8: (0..16 * 16 * 4)
+                    .map(|i: u32| if i / 4 % 16 < 8 { left } else { (i.wrapping_mul(seed) % 251) as u8 })
+                    .collect(),
+            };
+            let (colour, end) = MipTexture::build(&noise(7, 0), 0, true);
+            let (data, _) = MipTexture::build(&noise(13, 255), end, false);
+            let maps = SurfaceMaps {
+                materials: vec![shadetrace_formats::MaterialMaps {
+                    normal: None,
+                    metallic_roughness: phong_map.then_some((1, 0.7, 0.3)),
+                    occlusion: occlusion_map.then_some((1, 0.8)),
+                    emissive,
+                    emissive_texture: emissive_map.then_some(0),
+                }],
+                tangents: Vec::new(),
+                linear_textures: vec![1],
+            };
+            let mut lights = vec![
+                ShadingLight::new(LightKind::Directional { direction: Vec3::new(0.3, -1.0, 0.2) }, Vec3::ONE, true),
+                ShadingLight::new(LightKind::Directional { direction: Vec3::new(-0.5, -0.2, 0.7) }, Vec3::splat(0.5), false),
+            ];
+            if point_light {
+                let point = LightKind::Point { position: Vec3::new(1.0, 2.0, 0.5), range: Some(8.0) };
+                lights.push(ShadingLight::new(point, Vec3::splat(3.0), false));
+            }
+            let mut map = crate::shadow::test_map(64);
+            map.view_projection = glam::Mat4::from_scale(Vec3::splat(0.1));
+            let env = ShaderEnv {
+                materials: std::slice::from_ref(&material),
+                textures: &[colour, data],
+                lights: &lights,
+                shadow: shadow_map.then_some(&map),
+                receivers: None,
+                maps: &maps,
+            };
+            let mut quad = QuadLighting::default();
+            let (p, n) = (Vec3x4::from_lanes(&positions), Vec3x4::from_lanes(&normals));
+            prop_assert!(env.quad_lighting(0, eye, p, n, &mut quad));
+            let points = std::array::from_fn(|l| SurfacePoint {
+                uv: Vec2::from(uvs[l]),
+                duv_dx: Vec2::new(derivatives[0], derivatives[1]),
+                duv_dy: Vec2::new(derivatives[2], derivatives[3]),
+                tangent: Vec4::ZERO,
+            });
+            let list = list.as_deref();
+            let (mut quad_log, mut lane_log) = (AccessLog::new(), AccessLog::new());
+            let mut quad_blocks = BlockSet::new(lights.len());
+            let together = env.quad_colors(&quad, 0, &points, list, &mut quad_blocks, &mut quad_log);
+            let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
+            let Some(together) = together else {
+                prop_assert!(point_light);
+                prop_assert_eq!(&quad_blocks, &BlockSet::new(lights.len()));
+                prop_assert!(reads(&quad_log).is_empty());
+                return Ok(());
+            };
+            prop_assert!(!point_light);
+            for (l, at) in points.iter().enumerate() {
+                let mut lane_blocks = BlockSet::new(lights.len());
+                let lighting = env.lane_lighting(&quad, l, 0, at, list, &mut lane_blocks, &mut lane_log);
+                let surface = env.surface(0, at, &mut lane_blocks, &mut lane_log);
+                let own = compose(&surface, lighting, &mut lane_blocks);
+                prop_assert_eq!(together[l].to_array().map(f32::to_bits), own.to_array().map(f32::to_bits), "lane {}", l);
+                prop_assert_eq!(&quad_blocks, &lane_blocks, "lane {}", l);
+            }
             prop_assert_eq!(reads(&quad_log), reads(&lane_log));
         }
     }

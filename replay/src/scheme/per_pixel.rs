@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, QuadLighting};
+use crate::shader::{compose, QuadLighting, SurfacePoint};
 
 pub struct PerPixel;
 
@@ -100,23 +100,45 @@ impl SchemeJob for PerPixelJob {
                 let key = (ctx.view, quad.x / TILED_TILE, quad.y / TILED_TILE);
                 tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
             });
+            let lane_pixel = |l: usize| (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let points: [SurfacePoint; 4] = std::array::from_fn(|l| {
+                let (x, y) = lane_pixel(l);
+                ctx.surface_point(uvs[l], duv_dx, duv_dy, x, y)
+            });
+            // Lanes that take the same blocks are shaded together and costed alike.
+            self.blocks.clear();
+            let together = match quad_lit {
+                true => ctx
+                    .env
+                    .quad_colors(&self.quad, material, &points, list, &mut self.blocks, acc.log),
+                false => None,
+            };
+            if let Some(out) = together {
+                for l in 0..4 {
+                    let (x, y) = lane_pixel(l);
+                    let useful = quad.lanes & (1 << l) != 0;
+                    self.packer
+                        .lane(&self.blocks, useful, ctx.pixel_id(x, y), fine, acc.heat);
+                }
+                colors.push(out);
+                continue;
+            }
             let mut out = [Vec4::ZERO; 4];
-            for (l, &uv) in uvs.iter().enumerate() {
-                let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            for (l, at) in points.iter().enumerate() {
+                let (x, y) = lane_pixel(l);
                 self.blocks.clear();
-                let at = ctx.surface_point(uv, duv_dx, duv_dy, x, y);
                 let (blocks, log) = (&mut self.blocks, &mut *acc.log);
                 let lighting = match quad_lit {
-                    true => ctx.env.lane_lighting(&self.quad, l, material, &at, list, blocks, log),
+                    true => ctx.env.lane_lighting(&self.quad, l, material, at, list, blocks, log),
                     false => {
-                        let inputs = attributes.lane(l).lighting_inputs(ctx.eye, material, at);
+                        let inputs = attributes.lane(l).lighting_inputs(ctx.eye, material, *at);
                         match list {
                             Some(list) => ctx.env.lighting_listed(&inputs, list, blocks, log),
                             None => ctx.env.lighting(&inputs, blocks, log),
                         }
                     }
                 };
-                let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
+                let surface = ctx.env.surface(material, at, &mut self.blocks, acc.log);
                 out[l] = compose(&surface, lighting, &mut self.blocks);
                 let useful = quad.lanes & (1 << l) != 0;
                 self.packer
