@@ -313,6 +313,38 @@ impl SimdPacker {
         }
     }
 
+    /// [`Self::lane`] of a quad's four lanes, which take the same `blocks`: `useful` has a
+    /// bit per lane, `pixels` are their heat-map ids. The blocks are joined and costed once,
+    /// not once per lane (again after a group issues between two lanes).
+    #[inline(always)]
+    pub fn quad(
+        &mut self,
+        blocks: &BlockSet,
+        useful: u8,
+        pixels: [u32; 4],
+        stage: &mut StageCost,
+        heat: &mut CostHeatList,
+    ) {
+        let cost = memoized_cost(&mut self.fixed_memo, blocks);
+        for (l, pixel) in pixels.into_iter().enumerate() {
+            if l == 0 || self.lanes == 0 {
+                self.union.union_with(blocks);
+            }
+            if useful & 1 << l != 0 {
+                self.useful_alu += cost.alu as u64;
+                self.useful_tex += cost.tex as u64;
+                self.useful_lanes += 1;
+            }
+            if heat.is_kept() {
+                self.pixels.push(pixel);
+            }
+            self.lanes += 1;
+            if self.lanes == self.width {
+                self.flush(stage, heat);
+            }
+        }
+    }
+
     /// Issues the open group, if any (at the end of a unit of work).
     pub fn flush(&mut self, stage: &mut StageCost, heat: &mut CostHeatList) {
         if self.lanes == 0 {
@@ -370,6 +402,55 @@ mod tests {
         );
         let issued = stage.issued() as u32;
         assert_eq!(heat.entries(), [(0, issued), (1, issued), (2, issued)]);
+    }
+
+    /// One light's blocks and some of the light-independent ones, from a few bits.
+    fn blocks_of(bits: u8) -> BlockSet {
+        let mut blocks = BlockSet::new(1);
+        for (i, block) in [Block::Compose, Block::CoarseSetup, Block::AlbedoTextured]
+            .into_iter()
+            .enumerate()
+        {
+            if bits & 1 << i != 0 {
+                blocks.take(block);
+            }
+        }
+        blocks.lights[0] = LightBlocks::from_bits_truncate(bits >> 3);
+        blocks
+    }
+
+    proptest::proptest! {
+        /// A quad's four lanes added at once count what four `lane` calls count, also where a
+        /// group issues between two of them (widths not a multiple of four, lanes added
+        /// one by one in between), with or without heat.
+        #[test]
+        fn a_quad_counts_as_its_four_lanes(
+            width in 1u32..18,
+            kept in proptest::prelude::any::<bool>(),
+            // Per entry: a quad (its blocks, useful lanes) or a lone lane.
+            entries in proptest::collection::vec((0u8..=255, 0u8..16, proptest::prelude::any::<bool>()), 0..24),
+        ) {
+            let run = |together: bool| {
+                let mut packer = SimdPacker::new(width, 1);
+                let (mut stage, mut heat) = (StageCost::default(), CostHeatList::new(kept));
+                for (i, &(bits, useful, quad)) in entries.iter().enumerate() {
+                    let blocks = blocks_of(bits);
+                    let pixels: [u32; 4] = std::array::from_fn(|l| (4 * i + l) as u32);
+                    match (quad, together) {
+                        (true, true) => packer.quad(&blocks, useful, pixels, &mut stage, &mut heat),
+                        (true, false) => {
+                            for (l, pixel) in pixels.into_iter().enumerate() {
+                                packer.lane(&blocks, useful & 1 << l != 0, pixel, &mut stage, &mut heat);
+                            }
+                        }
+                        (false, _) => packer.lane(&blocks, useful & 1 != 0, pixels[0], &mut stage, &mut heat),
+                    }
+                }
+                packer.flush(&mut stage, &mut heat);
+                (stage, heat.entries().to_vec())
+            };
+            proptest::prop_assert_eq!(run(true), run(false));
+        }
     }
 
     /// The table of light costs is the sum of each flag's block.

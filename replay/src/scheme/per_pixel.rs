@@ -114,12 +114,11 @@ impl SchemeJob for PerPixelJob {
                 false => None,
             };
             if let Some(out) = together {
-                for l in 0..4 {
+                let pixels = std::array::from_fn(|l| {
                     let (x, y) = lane_pixel(l);
-                    let useful = quad.lanes & (1 << l) != 0;
-                    self.packer
-                        .lane(&self.blocks, useful, ctx.pixel_id(x, y), fine, acc.heat);
-                }
+                    ctx.pixel_id(x, y)
+                });
+                self.packer.quad(&self.blocks, quad.lanes, pixels, fine, acc.heat);
                 colors.push(out);
                 continue;
             }
