@@ -296,16 +296,19 @@ impl ShaderEnv<'_> {
         let n = n.negate_where_negative(n.dot(v), double_sided);
         let twice = n.dot(v) * f32x4::splat(2.0);
         let r = (n.scale(twice) - v).normalize_or(n);
-        quad.positions = positions;
-        let (n_lanes, r_lanes) = (n.to_lanes(), r.to_lanes());
-        quad.directions = std::array::from_fn(|l| PointDirections {
-            n: n_lanes[l],
-            r: r_lanes[l],
-        });
         quad.directional_only = self
             .lights
             .iter()
             .all(|light| matches!(light.kind, LightKind::Directional { .. }));
+        // Each lane's position and directions, which only local lights read.
+        if !quad.directional_only {
+            quad.positions = positions;
+            let (n_lanes, r_lanes) = (n.to_lanes(), r.to_lanes());
+            quad.directions = std::array::from_fn(|l| PointDirections {
+                n: n_lanes[l],
+                r: r_lanes[l],
+            });
+        }
         // Only the directional lights' entries are written, and only they are read.
         for (k, light) in self.lights.iter().enumerate() {
             if let LightKind::Directional { .. } = light.kind {
