@@ -71,8 +71,28 @@ pub fn merge(
 
 /// Writes the lanes of `input` whose alpha `discards` does not reject: `write` gets each
 /// passing sample (its index, position and the lane's colour) and says whether it wrote a
-/// depth; each written lane touches its colour line once.
+/// depth; each written lane touches its colour line once. One sample per pixel (the usual
+/// case) gets its own compiled loop, without the loop over samples.
 fn merge_lanes(
+    input: &MergeInput,
+    buffer: &mut SampleBuffer,
+    layout: &FramebufferLayout,
+    raster: &mut RasterStats,
+    log: &mut AccessLog,
+    discards: impl Fn(f32) -> bool,
+    write: impl FnMut(&mut SampleBuffer, usize, (i64, i64), Vec4) -> bool,
+) -> bool {
+    match buffer.samples {
+        1 => merge_samples(1, input, buffer, layout, raster, log, discards, write),
+        samples => merge_samples(samples, input, buffer, layout, raster, log, discards, write),
+    }
+}
+
+/// [`merge_lanes`] with `samples` per pixel, inlined into each of its calls.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn merge_samples(
+    samples: usize,
     input: &MergeInput,
     buffer: &mut SampleBuffer,
     layout: &FramebufferLayout,
@@ -82,7 +102,6 @@ fn merge_lanes(
     mut write: impl FnMut(&mut SampleBuffer, usize, (i64, i64), Vec4) -> bool,
 ) -> bool {
     let mut depth_written = false;
-    let samples = buffer.samples;
     for ((quad, passed), lane_colors) in input.quads.iter().zip(input.colors) {
         for lane in 0..4u32 {
             let bits = passed >> (lane as usize * samples) & ((1 << samples) - 1);
