@@ -27,9 +27,7 @@ pub fn resolve(buffer: &SampleBuffer, colors: Colors) -> TileImage {
             .collect(),
         Colors::Skipped => Vec::new(),
     };
-    let covered = (0..buffer.blended.len())
-        .filter(|&p| buffer.covered(p * samples))
-        .count() as u64;
+    let covered = buffer.covered_pixels();
     TileImage {
         view: buffer.view,
         rect: buffer.rect,

@@ -79,6 +79,19 @@ impl SampleBuffer {
                 .any(|&p| p != NO_PRIMITIVE)
     }
 
+    /// How many pixels a surface covers ([`Self::covered`]); one sample per pixel (the usual
+    /// case) is each pixel's own test, without a loop over its samples.
+    pub fn covered_pixels(&self) -> u64 {
+        let pixels = self.blended.len();
+        let count = match self.samples {
+            1 => (self.blended.iter().zip(&self.prim))
+                .filter(|&(&blended, &prim)| blended || prim != NO_PRIMITIVE)
+                .count(),
+            samples => (0..pixels).filter(|&p| self.covered(p * samples)).count(),
+        };
+        count as u64
+    }
+
     /// Eight running maxima, each a compare and select (one SIMD `max` instruction), so
     /// that the scan runs four or eight samples at a time: a fold through `f32::max` is one
     /// chain of dependent steps, each with a NaN check. The order changes at most the sign
@@ -113,6 +126,25 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
+        /// The covered pixels counted at once are those [`SampleBuffer::covered`] finds one
+        /// by one, at one sample per pixel and at four.
+        #[test]
+        fn covered_pixels_are_counted_as_each_pixel_is_tested(
+            samples in prop_oneof![Just(1usize), Just(4)],
+            pixels in prop::collection::vec((any::<bool>(), prop::array::uniform4(any::<bool>())), 0..40),
+        ) {
+            let rect = Rect { x0: 0, y0: 0, x1: pixels.len() as u32, y1: 1 };
+            let mut buffer = SampleBuffer::new(0, rect, samples);
+            for (p, &(blended, drawn)) in pixels.iter().enumerate() {
+                buffer.blended[p] = blended;
+                for (prim, &drawn) in buffer.prim[p * samples..][..samples].iter_mut().zip(&drawn) {
+                    *prim = if drawn { p as u32 } else { NO_PRIMITIVE };
+                }
+            }
+            let one_by_one = (0..pixels.len()).filter(|&p| buffer.covered(p * samples)).count() as u64;
+            prop_assert_eq!(buffer.covered_pixels(), one_by_one);
+        }
+
         /// The eight-lane scan finds the value `fold(0.0, f32::max)` finds, over any number
         /// of samples (a remainder too), with NaN, both zeros and negative depths among them.
         #[test]
