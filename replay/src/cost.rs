@@ -298,19 +298,8 @@ impl SimdPacker {
         heat: &mut CostHeatList,
     ) {
         self.union.union_with(blocks);
-        if useful {
-            let c = memoized_cost(&mut self.fixed_memo, blocks);
-            self.useful_alu += c.alu as u64;
-            self.useful_tex += c.tex as u64;
-            self.useful_lanes += 1;
-        }
-        if heat.is_kept() {
-            self.pixels.push(pixel);
-        }
-        self.lanes += 1;
-        if self.lanes == self.width {
-            self.flush(stage, heat);
-        }
+        let cost = useful.then(|| memoized_cost(&mut self.fixed_memo, blocks));
+        self.add_lane(cost, pixel, stage, heat);
     }
 
     /// [`Self::lane`] of a quad's four lanes, which take the same `blocks`: `useful` has a
@@ -330,18 +319,25 @@ impl SimdPacker {
             if l == 0 || self.lanes == 0 {
                 self.union.union_with(blocks);
             }
-            if useful & 1 << l != 0 {
-                self.useful_alu += cost.alu as u64;
-                self.useful_tex += cost.tex as u64;
-                self.useful_lanes += 1;
-            }
-            if heat.is_kept() {
-                self.pixels.push(pixel);
-            }
-            self.lanes += 1;
-            if self.lanes == self.width {
-                self.flush(stage, heat);
-            }
+            self.add_lane((useful & 1 << l != 0).then_some(cost), pixel, stage, heat);
+        }
+    }
+
+    /// Counts a lane whose blocks the group's union already holds: its cost where it is
+    /// useful, its pixel for the heat map; issues the group once it is full.
+    #[inline(always)]
+    fn add_lane(&mut self, useful_cost: Option<BlockCost>, pixel: u32, stage: &mut StageCost, heat: &mut CostHeatList) {
+        if let Some(c) = useful_cost {
+            self.useful_alu += c.alu as u64;
+            self.useful_tex += c.tex as u64;
+            self.useful_lanes += 1;
+        }
+        if heat.is_kept() {
+            self.pixels.push(pixel);
+        }
+        self.lanes += 1;
+        if self.lanes == self.width {
+            self.flush(stage, heat);
         }
     }
 

@@ -88,7 +88,10 @@ fn merge_lanes(
     }
 }
 
-/// [`merge_lanes`] with `samples` per pixel, inlined into each of its calls.
+/// [`merge_lanes`] with `samples` per pixel, inlined into each of its calls. The buffer and
+/// counters come as parameters, not as fields of one struct: the compiler then knows that
+/// writing the counters leaves the buffer's rectangle alone (0.45% more instructions in
+/// `forward` otherwise).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn merge_samples(
