@@ -141,6 +141,22 @@ struct Directional {
 }
 
 impl Directional {
+    /// Whether the point faces the light.
+    #[inline(always)]
+    fn lit(&self) -> bool {
+        self.n_dot_l > 0.0
+    }
+
+    /// The Lambert term: N·L on the lit side, 0 behind.
+    #[inline(always)]
+    fn lambert(&self) -> f32 {
+        if self.lit() {
+            self.n_dot_l
+        } else {
+            0.0
+        }
+    }
+
     /// The specular term, on the `lit` side where not `hidden`.
     #[inline(always)]
     fn specular(&self, lit: bool, hidden: impl FnOnce() -> bool) -> f32 {
@@ -438,8 +454,8 @@ impl ShaderEnv<'_> {
                         exponent,
                         strength,
                     };
-                    let lit = shading.n_dot_l > 0.0;
-                    diffuse[l] = if lit { shading.n_dot_l } else { 0.0 };
+                    let lit = shading.lit();
+                    diffuse[l] = shading.lambert();
                     // Only a shadowed light's visibility can be 0.
                     let hidden = || shading.hidden_by_shadow(scale[k][l]);
                     specular[l] = shading.specular(lit, hidden);
@@ -613,11 +629,10 @@ impl ShaderEnv<'_> {
         flags: &mut LightBlocks,
         log: &mut AccessLog,
     ) {
-        let n_dot_l = shading.n_dot_l;
-        let lit = n_dot_l > 0.0;
+        let lit = shading.lit();
         if effects.contains(Effects::DIFFUSE) {
             *flags |= LightBlocks::DIFFUSE;
-            term.diffuse = if lit { n_dot_l } else { 0.0 };
+            term.diffuse = shading.lambert();
             if !light.shadowed {
                 term.scale = 1.0;
             }
