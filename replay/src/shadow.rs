@@ -101,15 +101,18 @@ impl ShadowMap {
                 let candidates = candidates.iter().map(|&i| &tris[i as usize]);
                 for t in candidates.filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
                     rasterize(t, rect, offsets, |q| {
+                        let texel = |lane: u32| ((q.y + (lane >> 1) - rect.y0) * size + q.x + (lane & 1)) as usize;
+                        let covered = || (0..4u32).filter(|lane| q.coverage & (1 << lane) != 0);
+                        // No covered lane is nearer than the triangle's nearest vertex: where
+                        // the map already holds that or nearer, the quad changes nothing.
+                        if covered().all(|lane| depth[texel(lane)] <= t.z_min) {
+                            return;
+                        }
                         // Every lane's depth at once (pure: uncovered lanes are dropped).
                         let (px, py) = crate::raster::pixel_center(q.x, q.y);
                         let z = t.depths(t.quad_edges(px, py));
-                        for lane in 0..4u32 {
-                            if q.coverage & (1 << lane) == 0 {
-                                continue;
-                            }
-                            let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
-                            let d = &mut depth[((y - rect.y0) * size + x) as usize];
+                        for lane in covered() {
+                            let d = &mut depth[texel(lane)];
                             *d = d.min(z[lane as usize]);
                         }
                     });

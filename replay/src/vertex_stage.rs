@@ -38,6 +38,9 @@ pub struct SetupTriangle {
     pub bary: [Vec3; 3],
     /// Inclusive pixel bounds, clamped to the viewport.
     pub bbox: [u32; 4],
+    /// The nearest vertex depth: no covered sample's [`Self::depth`] is nearer (its edge
+    /// values are at least 0 and sum to `area2`, so the depth is a convex combination, and
+    /// f64 rounding stays far within half an f32 step).
     pub z_min: f32,
     /// 1 where edge `i` (opposite vertex `i`) is not top-left: inside means `E_i >= bias_i`.
     pub bias: [i64; 3],
@@ -440,6 +443,33 @@ mod tests {
                 let (dx, dy) = ((l & 1) as i64 * SUBPIXEL, (l >> 1) as i64 * SUBPIXEL);
                 prop_assert_eq!(*e, t.edges(x + dx, y + dy));
             }
+        }
+
+        /// A covered sample's depth (edge values at least 0, summing to twice the area) is
+        /// never nearer than the nearest vertex, up to edge values of 2^56 (the guard band's
+        /// products), with vertex depths at 0, 1, subnormal and a few steps apart.
+        #[test]
+        fn covered_depths_are_never_nearer_than_the_nearest_vertex(
+            e in prop::array::uniform3(prop_oneof![0i64..1i64 << 56, 0i64..4]),
+            base in prop_oneof![0.0f32..=1.0, Just(0.0f32), Just(1.0f32), Just(f32::from_bits(1))],
+            steps in prop::array::uniform3(0u32..3),
+            spread in any::<bool>(),
+            far in prop::array::uniform3(0.0f32..=1.0),
+        ) {
+            // Vertex depths a few f32 steps apart (where rounding could cross the nearest),
+            // or anywhere in [0, 1].
+            let z = match spread {
+                true => far,
+                false => steps.map(|k| f32::from_bits(base.to_bits() + k).min(1.0)),
+            };
+            prop_assume!(e.iter().sum::<i64>() > 0);
+            let t = SetupTriangle {
+                area2: e.iter().sum(),
+                z,
+                z_min: z[0].min(z[1]).min(z[2]),
+                ..triangle([1.0; 3], [[0.0; 3]; 3])
+            };
+            prop_assert!(t.depth(e) >= t.z_min, "{} < {}", t.depth(e), t.z_min);
         }
 
         /// Four samples at once give each sample's own barycentrics and depth, bit for bit,
