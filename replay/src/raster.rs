@@ -90,9 +90,13 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     }
     // Per lane row and sample: the covered columns [lo, hi] (empty when lo > hi).
     let mut spans = [[(0i64, -1i64); 8]; 2];
+    // Every sample of every lane covered.
+    let full = u32::MAX >> (32 - 4 * samples);
     let mut y = y0;
     while y < y1 {
         let (mut row_lo, mut row_hi) = (i64::MAX, i64::MIN);
+        // The columns every span covers (empty when one is): quads inside are full.
+        let (mut inner_lo, mut inner_hi) = (i64::MIN, i64::MAX);
         for (r, (row, row_series)) in spans.iter_mut().zip(&mut series).enumerate() {
             let py = y + r as u32;
             for (span, columns) in row[..samples].iter_mut().zip(&mut row_series[..samples]) {
@@ -103,6 +107,7 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
                     (lo.max(col_lo), hi.min(col_hi))
                 };
                 *columns = columns.stepped(&steps, &steps.two_rows);
+                (inner_lo, inner_hi) = (inner_lo.max(span.0), inner_hi.min(span.1));
                 if span.0 <= span.1 {
                     row_lo = row_lo.min(span.0);
                     row_hi = row_hi.max(span.1);
@@ -112,12 +117,15 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
         if row_lo <= row_hi {
             let mut x = (row_lo as u32 & !1).max(x0);
             while x < x1 && i64::from(x) <= row_hi {
-                let mut coverage = 0u32;
-                for lane in 0..4 {
-                    let (px, r) = (i64::from(x + (lane & 1)), (lane >> 1) as usize);
-                    for (s, &(lo, hi)) in spans[r][..samples].iter().enumerate() {
-                        if lo <= px && px <= hi {
-                            coverage |= 1 << (lane as usize * samples + s);
+                let mut coverage = full;
+                if i64::from(x) < inner_lo || i64::from(x) + 1 > inner_hi {
+                    coverage = 0;
+                    for lane in 0..4 {
+                        let (px, r) = (i64::from(x + (lane & 1)), (lane >> 1) as usize);
+                        for (s, &(lo, hi)) in spans[r][..samples].iter().enumerate() {
+                            if lo <= px && px <= hi {
+                                coverage |= 1 << (lane as usize * samples + s);
+                            }
                         }
                     }
                 }
