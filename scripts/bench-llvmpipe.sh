@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # shadetrace against Mesa's llvmpipe rendering the same stereo frame (1280x1440 per eye,
 # 2048² shadow map, Lambert + Phong + 5x5 PCF + trilinear albedo), back to back at 1 and 2
-# threads: ms per frame of forward, tile-pair and amfs beside llvmpipe's frame_ms (bench.py),
+# threads: ms per frame of forward, tile-pair, amfs and he-2x2 (the presets the speed targets
+# name; --presets to choose) beside llvmpipe's frame_ms (bench.py),
 # median and min-max of REPS rounds, and the ratios. shadetrace's ms are results.json's
 # timing.wall_s: of one replayed frame ("1 frame"), and per frame of a replay of the trace's
 # 3 frames ("of 3"), the steady state that llvmpipe's own repeated frames measure (a still
@@ -10,13 +11,23 @@
 # shadetrace ms over its llvmpipe ms: a machine that slows down between rounds slows both
 # sides of a ratio alike. The kit (bench.py, cam.py) is ../shared/anchors/llvmpipe/ beside
 # the repository, or $LLVMPIPE_KIT.
-# Usage: [SHADETRACE_BIN=path] scripts/bench-llvmpipe.sh [--reps N] SCENE.glb...
+# Usage: [SHADETRACE_BIN=path] scripts/bench-llvmpipe.sh [--reps N] [--presets "P..."] SCENE.glb...
 # (single-file GLB works best)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 reps=3
-if [ "${1:-}" = "--reps" ]; then reps=$2; shift 2; fi
-[ $# -gt 0 ] || { echo "usage: scripts/bench-llvmpipe.sh [--reps N] SCENE.glb..." >&2; exit 2; }
+presets="forward tile-pair amfs he-2x2"
+usage='usage: scripts/bench-llvmpipe.sh [--reps N] [--presets "P..."] SCENE.glb...'
+while [ $# -gt 0 ]; do
+  case $1 in
+    --reps | --presets)
+      [ $# -ge 2 ] || { echo "$1 needs a value; $usage" >&2; exit 2; }
+      if [ "$1" = --reps ]; then reps=$2; else presets=$2; fi
+      shift 2 ;;
+    *) break ;;
+  esac
+done
+[ $# -gt 0 ] || { echo "$usage" >&2; exit 2; }
 kit=${LLVMPIPE_KIT:-../shared/anchors/llvmpipe}
 [ -f "$kit/bench.py" ] || { echo "$kit/bench.py not found (set LLVMPIPE_KIT)" >&2; exit 2; }
 kit=$(realpath "$kit")
@@ -45,7 +56,7 @@ for scene in "$@"; do
         --json "$work/lp.json" >"$work/lp.log" 2>&1 || { cat "$work/lp.log" >&2; exit 1; }
       python3 -c "import json; print($round, 'llvmpipe', 1, json.load(open('$work/lp.json'))['summary'][0]['frame_ms'])" \
         >>"$work/times"
-      for preset in forward tile-pair amfs; do
+      for preset in $presets; do
         for frames in 1 3; do
           RAYON_NUM_THREADS=$threads "$bin" replay "$work/$name.strace" --preset "$preset" --frames "0..$frames" \
             --no-images --no-reference -q --out "$work/out"
@@ -54,7 +65,7 @@ for scene in "$@"; do
         done
       done
     done
-    python3 - "$work/times" "$name" "$threads" <<'SUMMARY'
+    python3 - "$work/times" "$name" "$threads" $presets <<'SUMMARY'
 import statistics, sys
 rows = [line.split() for line in open(sys.argv[1])]
 ms = {}
@@ -66,7 +77,7 @@ def spread(values):
     return f"{statistics.median(v):6.0f} ({v[0]:4.0f}-{v[-1]:4.0f})"
 def ratio(series):
     return statistics.median(series[r] / lp[r] for r in series)
-for preset in ["forward", "tile-pair", "amfs"]:
+for preset in sys.argv[4:]:
     one, three = ms[(preset, "1")], ms[(preset, "3")]
     print(f"{sys.argv[2]:<18} {sys.argv[3]:>7} {preset:<10} {spread(one.values())} {spread(three.values())} "
           f"{spread(lp.values())} {ratio(one):7.2f} {ratio(three):7.2f}")
