@@ -415,28 +415,28 @@ impl ShaderEnv<'_> {
             || maps.metallic_roughness.is_some()
             || maps.occlusion.is_some()
             || maps.emissive_texture.is_some();
-        let mut phong_parameters = [(0.0, 0.0); 4];
-        let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
-        for (l, at) in points.iter().enumerate() {
-            if l == 0 || textured {
+        // Two loops rather than a test per lane: the one loop compiled to about 100 more
+        // instructions per quad.
+        let (phong_parameters, surfaces) = if textured {
+            let mut phong_parameters = [(0.0, 0.0); 4];
+            let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
+            for (l, at) in points.iter().enumerate() {
                 blocks.take(Block::CoarseSetup);
                 phong_parameters[l] = self.phong_parameters(material, at, blocks, log);
-            } else {
-                phong_parameters[l] = phong_parameters[0];
+                self.lane_visibilities(quad, l, evaluated, &mut scale, log);
+                surfaces[l] = self.surface(material, at, blocks, log);
             }
-            for &k in evaluated {
-                let k = k as usize;
-                if let (true, Some(map), Some(footprint)) =
-                    (self.lights[k].shadowed, self.shadow, quad.footprints[k][l])
-                {
-                    scale[k][l] = map.filter(footprint, log);
-                }
+            (phong_parameters, surfaces)
+        } else {
+            blocks.take(Block::CoarseSetup);
+            let phong_parameters = self.phong_parameters(material, &points[0], blocks, log);
+            self.lane_visibilities(quad, 0, evaluated, &mut scale, log);
+            let surface = self.surface(material, &points[0], blocks, log);
+            for l in 1..4 {
+                self.lane_visibilities(quad, l, evaluated, &mut scale, log);
             }
-            surfaces[l] = match l == 0 || textured {
-                true => self.surface(material, at, blocks, log),
-                false => surfaces[0],
-            };
-        }
+            ([phong_parameters; 4], [surface; 4])
+        };
         // Ambient plus every light's term in light order, as `combine` sums them.
         let mut total = Vec3x4::splat(Vec3::splat(AMBIENT));
         for (k, light) in self.lights.iter().enumerate() {
@@ -466,6 +466,25 @@ impl ShaderEnv<'_> {
         }
         blocks.take(Block::Compose);
         Some(compose_quad(&surfaces, total))
+    }
+
+    /// Lane `l`'s shadow visibility of each light of `evaluated`, into `scale[k][l]`, in
+    /// light order (its PCF footprints' reads).
+    #[inline(always)]
+    fn lane_visibilities(
+        &self,
+        quad: &QuadLighting,
+        l: usize,
+        evaluated: &[u32],
+        scale: &mut [[f32; 4]; QUAD_LIGHTS],
+        log: &mut AccessLog,
+    ) {
+        for &k in evaluated {
+            let k = k as usize;
+            if let (true, Some(map), Some(footprint)) = (self.lights[k].shadowed, self.shadow, quad.footprints[k][l]) {
+                scale[k][l] = map.filter(footprint, log);
+            }
+        }
     }
 
     /// Light `k`'s term at lane `l` of a quad: [`Self::light_term`] from the quad's arithmetic.
@@ -718,6 +737,7 @@ impl ShaderEnv<'_> {
     }
 
     /// Fine albedo: base colour, times the texture when the material has one.
+    #[inline(always)]
     pub fn albedo(
         &self,
         material: u32,

@@ -330,9 +330,12 @@ impl AccessLog {
             footprint.lines += 1 + usize::from(a != b);
         }
         let logged = self.entries[s].len();
-        let repeats =
-            |(last, at): (Footprint, usize)| at == logged && last.lines <= self.texture_ways && footprint.ends(&last);
-        if self.last_footprint.is_some_and(repeats) {
+        // A match, not a closure: the compiler left the closure out of line.
+        let repeats = match self.last_footprint {
+            Some((last, at)) => at == logged && last.lines <= self.texture_ways && footprint.ends(&last),
+            None => false,
+        };
+        if repeats {
             // What the reads would do: each one a counted hit, but for a run's first read
             // that repeats the access before it, which the log drops.
             let mut previous = self.last[s];
