@@ -176,6 +176,55 @@ impl Directional {
     }
 }
 
+/// [`Directional`] at a quad's four lanes: the same tests, as masks.
+struct DirectionalQuad {
+    n_dot_l: f32x4,
+    r_dot_l: f32x4,
+    exponent: f32x4,
+    strength: f32x4,
+}
+
+impl DirectionalQuad {
+    /// [`Directional::lit`].
+    #[inline(always)]
+    fn lit(&self) -> f32x4 {
+        self.n_dot_l.simd_gt(f32x4::ZERO)
+    }
+
+    /// [`Directional::lambert`].
+    #[inline(always)]
+    fn lambert(&self) -> f32x4 {
+        self.lit().bitselect(self.n_dot_l, f32x4::ZERO)
+    }
+
+    /// [`Directional::hidden_by_shadow`] at visibilities `scale`.
+    #[inline(always)]
+    fn hidden_by_shadow(&self, scale: f32x4) -> f32x4 {
+        scale.simd_eq(f32x4::ZERO)
+            & self.r_dot_l.simd_le(f32x4::ONE)
+            & self.exponent.simd_ge(f32x4::ZERO)
+            & self.strength.is_finite()
+    }
+
+    /// The lanes (bit `l`) whose [`Directional::specular`] is the power: lit and not hidden
+    /// by a visibility of `scale`.
+    #[inline(always)]
+    fn specular_lanes(&self, scale: f32x4) -> u32 {
+        (self.lit() & !self.hidden_by_shadow(scale)).to_bitmask()
+    }
+
+    /// Lane `l` alone.
+    #[inline(always)]
+    fn lane(&self, l: usize) -> Directional {
+        Directional {
+            n_dot_l: self.n_dot_l.to_array()[l],
+            r_dot_l: self.r_dot_l.to_array()[l],
+            exponent: self.exponent.to_array()[l],
+            strength: self.strength.to_array()[l],
+        }
+    }
+}
+
 /// The most lights a [`QuadLighting`] holds; a scene with more lights its quads lane by lane.
 const QUAD_LIGHTS: usize = 4;
 /// The indices of a [`QuadLighting`]'s lights: a list of every light.
@@ -440,28 +489,28 @@ impl ShaderEnv<'_> {
         // Ambient plus every light's term in light order, as `combine` sums them.
         let mut total = Vec3x4::splat(Vec3::splat(AMBIENT));
         for (k, light) in self.lights.iter().enumerate() {
-            let (mut diffuse, mut specular) = ([0.0f32; 4], [0.0f32; 4]);
+            let (mut diffuse, mut specular) = (f32x4::ZERO, [0.0f32; 4]);
             if listed[k] {
                 blocks.lights[k] |= LightBlocks::DIFFUSE | LightBlocks::SPECULAR;
                 if light.shadowed && self.shadow.is_some() {
                     blocks.lights[k] |= LightBlocks::SHADOW;
                 }
-                for l in 0..4 {
-                    let (exponent, strength) = phong_parameters[l];
-                    let shading = Directional {
-                        n_dot_l: quad.n_dot_l[k][l],
-                        r_dot_l: quad.r_dot_l[k][l],
-                        exponent,
-                        strength,
-                    };
-                    let lit = shading.lit();
-                    diffuse[l] = shading.lambert();
-                    // Only a shadowed light's visibility can be 0.
-                    let hidden = || shading.hidden_by_shadow(scale[k][l]);
-                    specular[l] = shading.specular(lit, hidden);
+                let shading = DirectionalQuad {
+                    n_dot_l: f32x4::new(quad.n_dot_l[k]),
+                    r_dot_l: f32x4::new(quad.r_dot_l[k]),
+                    exponent: f32x4::new(phong_parameters.map(|p| p.0)),
+                    strength: f32x4::new(phong_parameters.map(|p| p.1)),
+                };
+                diffuse = shading.lambert();
+                // The power (a call per lane) only where a lane needs it.
+                let powered = shading.specular_lanes(f32x4::new(scale[k]));
+                for (l, specular) in specular.iter_mut().enumerate() {
+                    if powered & 1 << l != 0 {
+                        *specular = shading.lane(l).specular(true, || false);
+                    }
                 }
             }
-            let weight = f32x4::new(scale[k]) * (f32x4::new(diffuse) + f32x4::new(specular));
+            let weight = f32x4::new(scale[k]) * (diffuse + f32x4::new(specular));
             total = total + Vec3x4::splat(light.radiance).scale(weight);
         }
         blocks.take(Block::Compose);
@@ -1035,6 +1084,55 @@ mod tests {
             }
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
             prop_assert_eq!(reads(&quad_log), reads(&lane_log));
+        }
+    }
+
+    /// An f32 of every kind a cosine or Phong parameter can be: ordinary, either zero, 1
+    /// and the values beside it, infinite and NaN.
+    fn any_kind_of_f32() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            -2.0f32..2.0,
+            0.0f32..300.0,
+            prop::sample::select(vec![
+                0.0,
+                -0.0,
+                1.0,
+                f32::from_bits(1.0f32.to_bits() + 1),
+                f32::from_bits(1.0f32.to_bits() - 1),
+                -1.0,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                f32::NAN,
+            ]),
+        ]
+    }
+
+    proptest! {
+        /// The four-wide directional tests are each lane's own: Lambert bits, and which
+        /// lanes' specular is the power, for every kind of cosine, parameter and visibility.
+        #[test]
+        fn directional_quad_is_each_lanes_directional(
+            n_dot_l in prop::array::uniform4(any_kind_of_f32()),
+            r_dot_l in prop::array::uniform4(any_kind_of_f32()),
+            exponent in prop::array::uniform4(any_kind_of_f32()),
+            strength in prop::array::uniform4(any_kind_of_f32()),
+            scale in prop::array::uniform4(prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..1.0]),
+        ) {
+            let quad = DirectionalQuad {
+                n_dot_l: f32x4::new(n_dot_l),
+                r_dot_l: f32x4::new(r_dot_l),
+                exponent: f32x4::new(exponent),
+                strength: f32x4::new(strength),
+            };
+            let (lambert, powered) = (quad.lambert().to_array(), quad.specular_lanes(f32x4::new(scale)));
+            for l in 0..4 {
+                let lane = Directional { n_dot_l: n_dot_l[l], r_dot_l: r_dot_l[l], exponent: exponent[l], strength: strength[l] };
+                prop_assert_eq!(lambert[l].to_bits(), lane.lambert().to_bits());
+                prop_assert_eq!(powered & 1 << l != 0, lane.lit() && !lane.hidden_by_shadow(scale[l]));
+                let alone = quad.lane(l);
+                let fields = |d: &Directional| [d.n_dot_l, d.r_dot_l, d.exponent, d.strength].map(f32::to_bits);
+                prop_assert_eq!(fields(&alone), fields(&lane));
+            }
         }
     }
 
