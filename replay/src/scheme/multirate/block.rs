@@ -73,22 +73,26 @@ impl MultirateJob {
     /// Groups quads into blocks of `size` pixels, a power of two (skipping pixels outside
     /// `within`).
     pub(super) fn group(quads: &[ShadeQuad], size: u32, within: Option<&CoarseBlock>, out: &mut Vec<CoarseBlock>) {
-        debug_assert!(size.is_power_of_two());
+        debug_assert!(size.is_power_of_two() && size >= 4);
         let align = !(size - 1);
         for quad in quads {
+            // A quad's lanes lie in one block (quads are 2x2-aligned, blocks at least 4x4):
+            // it is found once, from the newest block back (a quad's block is mostly among
+            // the last row's); blocks are unique, so that is the one `position` finds.
+            let (x0, y0) = (quad.x & align, quad.y & align);
+            let mut index = None;
             for lane in 0..4u32 {
                 let (x, y) = (quad.x + (lane & 1), quad.y + (lane >> 1));
                 if quad.lanes & (1 << lane) == 0 || within.is_some_and(|w| !w.contains(x, y)) {
                     continue;
                 }
-                let (x0, y0) = (x & align, y & align);
-                let index = match out.iter().position(|b| b.x0 == x0 && b.y0 == y0) {
+                let index = *index.get_or_insert_with(|| match out.iter().rposition(|b| b.x0 == x0 && b.y0 == y0) {
                     Some(i) => i,
                     None => {
                         out.push(CoarseBlock::new(x0, y0, size));
                         out.len() - 1
                     }
-                };
+                });
                 out[index].coverage |= 1 << ((y - y0) * size + (x - x0));
             }
         }
@@ -97,14 +101,26 @@ impl MultirateJob {
     /// Per lane of quad `index`: its block, bilinear weights and coarse lane. Screen blocks
     /// are found by position (a quad lies in one block); object-space lanes were assigned to
     /// cells, and belong to the coarse lane of their nearest corner.
-    pub(super) fn lane_sources(&self, index: usize, quad: &ShadeQuad) -> Option<[(usize, [f32; 4], usize); 4]> {
+    ///
+    /// `last` is the screen block of the quad before: blocks do not overlap, so the one that
+    /// holds the quad is found by trying it first (its neighbours along a row share it).
+    pub(super) fn lane_sources(
+        &self,
+        index: usize,
+        quad: &ShadeQuad,
+        last: &mut usize,
+    ) -> Option<[(usize, [f32; 4], usize); 4]> {
         if let Some(sources) = self.sources.get(index) {
             return Some(sources.map(|s| {
                 let nearest = (0..4).fold(0, |m, i| if s.weights[i] > s.weights[m] { i } else { m });
                 (s.block, s.weights, self.blocks[s.block].first_lane + nearest)
             }));
         }
-        let block = self.blocks.iter().position(|b| b.contains(quad.x, quad.y))?;
+        let block = match self.blocks.get(*last) {
+            Some(b) if b.contains(quad.x, quad.y) => *last,
+            _ => self.blocks.iter().position(|b| b.contains(quad.x, quad.y))?,
+        };
+        *last = block;
         let b = &self.blocks[block];
         Some(std::array::from_fn(|l| {
             let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));

@@ -234,8 +234,9 @@ impl SchemeJob for MultirateJob {
             }
             _ => self.shade_screen_space(ctx, quads, acc.log),
         }
+        let mut last_block = 0;
         for (index, quad) in quads.iter().enumerate() {
-            colors.push(self.shade_quad(ctx, index, quad, acc));
+            colors.push(self.shade_quad(ctx, index, quad, &mut last_block, acc));
         }
         self.issue(acc);
         if let Some((_, cache)) = self.cache.as_mut() {
@@ -456,11 +457,18 @@ impl MultirateJob {
 
     /// Fine stage of one quad: albedo per pixel, coarse terms resampled, refined effects
     /// recomputed; returns the four lane colours.
-    fn shade_quad(&mut self, ctx: &UnitContext, index: usize, quad: &ShadeQuad, acc: &mut Accounting) -> [Vec4; 4] {
+    fn shade_quad(
+        &mut self,
+        ctx: &UnitContext,
+        index: usize,
+        quad: &ShadeQuad,
+        last_block: &mut usize,
+        acc: &mut Accounting,
+    ) -> [Vec4; 4] {
         let lanes = ctx.quad_attributes(quad.x, quad.y).lanes();
         let duv_dx = lanes[1].uv - lanes[0].uv;
         let duv_dy = lanes[2].uv - lanes[0].uv;
-        let Some(sources) = self.lane_sources(index, quad) else {
+        let Some(sources) = self.lane_sources(index, quad, last_block) else {
             return [Vec4::ZERO; 4];
         };
         let material = ctx.triangle.material;
