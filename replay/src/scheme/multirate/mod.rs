@@ -20,14 +20,15 @@ mod tile_pair_cache;
 
 use glam::{Vec2, Vec3, Vec4};
 use shadetrace_formats::Scene;
+use wide::f32x4;
 
 use super::shading_cache::{CacheKey, ShadingCache};
-use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
+use super::{Accounting, LaneAttributes, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
 use crate::cost::{BlockSet, SimdPacker};
 use crate::cost_table::Block;
 use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
-use crate::shader::{compose, Effects, LightTerm, LightingInputs, SurfacePoint};
+use crate::shader::{compose, compose_quad, Effects, LightTerm, LightingInputs, Surface, SurfacePoint};
 use block::{corner_surfaces, sample_attributes, CoarseBlock};
 pub use config::{
     CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
@@ -92,12 +93,19 @@ impl ShadingScheme for Multirate {
     }
 
     fn begin_job(&self, lights: usize, simd_width: u32) -> Box<dyn SchemeJob> {
+        Box::new(MultirateJob::new(self.0, lights, simd_width))
+    }
+}
+
+impl MultirateJob {
+    /// A job with the worker's lane pools when they are for as many lights.
+    fn new(config: MultirateConfig, lights: usize, simd_width: u32) -> MultirateJob {
         let pools = LANE_POOLS
             .take()
             .filter(|pools| pools.lights == lights)
             .unwrap_or_default();
-        Box::new(MultirateJob {
-            config: self.0,
+        MultirateJob {
+            config,
             lights,
             simd_width,
             coarse_packer: SimdPacker::new(simd_width, lights),
@@ -112,14 +120,14 @@ impl ShadingScheme for Multirate {
             order: Vec::new(),
             terms: vec![LightTerm::default(); lights],
             spare_terms: pools.terms,
-            cache: self.0.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
+            cache: config.cache.map(|c| (c, ShadingCache::new(c.bytes, lights))),
             cache_scratch: CacheScratch::default(),
             reuse_packer: SimdPacker::new(simd_width, lights),
             cells: Vec::new(),
             quad_params: Vec::new(),
             quad_levels: Vec::new(),
             sources: Vec::new(),
-        })
+        }
     }
 }
 
@@ -440,6 +448,7 @@ impl MultirateJob {
         self.coarse_used - 1
     }
 
+    #[inline]
     fn fine_lane(&mut self) -> usize {
         if self.fine_used == self.fine_lanes.len() {
             self.fine_lanes.push(FineLane {
@@ -471,6 +480,22 @@ impl MultirateJob {
         let Some(sources) = self.lane_sources(index, quad, last_block) else {
             return [Vec4::ZERO; 4];
         };
+        match sources.iter().all(|&(block, ..)| self.blocks[block].refine.is_empty()) {
+            true => self.shade_quad_resampled(ctx, quad, &lanes, (duv_dx, duv_dy), &sources, acc),
+            false => self.shade_quad_lanes(ctx, quad, &lanes, (duv_dx, duv_dy), &sources, acc),
+        }
+    }
+
+    /// [`Self::shade_quad`] lane by lane.
+    fn shade_quad_lanes(
+        &mut self,
+        ctx: &UnitContext,
+        quad: &ShadeQuad,
+        lanes: &[LaneAttributes; 4],
+        (duv_dx, duv_dy): (Vec2, Vec2),
+        sources: &[(usize, [f32; 4], usize); 4],
+        acc: &mut Accounting,
+    ) -> [Vec4; 4] {
         let material = ctx.triangle.material;
         let mut out = [Vec4::ZERO; 4];
         for (l, lane) in lanes.iter().enumerate() {
@@ -510,5 +535,211 @@ impl MultirateJob {
             (lane.useful, lane.pixel, lane.key, lane.coarse_lane) = (useful, pixel, key, coarse_lane);
         }
         out
+    }
+
+    /// [`Self::shade_quad`] of a quad none of whose lanes refines an effect: each lane's fine
+    /// lane, blocks and surface reads, in lane order, as there; the resampling, the sum over
+    /// lights and the compose four lanes at a time, each lane's operations as there.
+    fn shade_quad_resampled(
+        &mut self,
+        ctx: &UnitContext,
+        quad: &ShadeQuad,
+        lanes: &[LaneAttributes; 4],
+        (duv_dx, duv_dy): (Vec2, Vec2),
+        sources: &[(usize, [f32; 4], usize); 4],
+        acc: &mut Accounting,
+    ) -> [Vec4; 4] {
+        let material = ctx.triangle.material;
+        let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
+        for (l, surface) in surfaces.iter_mut().enumerate() {
+            let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
+            let f = self.fine_lane();
+            let fine = &mut self.fine_lanes[f];
+            fine.blocks.take(Block::Resample);
+            let at = ctx.surface_point(lanes[l].uv, duv_dx, duv_dy, x, y);
+            *surface = ctx.env.surface(material, &at, &mut fine.blocks, acc.log);
+            fine.blocks.take(Block::Compose);
+            let useful = quad.lanes & (1 << l) != 0;
+            (fine.useful, fine.pixel, fine.key, fine.coarse_lane) = (useful, ctx.pixel_id(x, y), 0, sources[l].2);
+        }
+        // Written out lane by lane: array `map`s here were left out of line.
+        let [(b0, w0, _), (b1, w1, _), (b2, w2, _), (b3, w3, _)] = *sources;
+        let weight = |i: usize| f32x4::new([w0[i], w1[i], w2[i], w3[i]]);
+        let terms = [b0, b1, b2, b3].map(|b| self.blocks[b].terms.as_slice());
+        let n = self.lights;
+        let lighting = ctx.env.combine_quad(|k| {
+            let sample = |i: usize, field: fn(&LightTerm) -> f32| {
+                let at = i * n + k;
+                f32x4::new([
+                    field(&terms[0][at]),
+                    field(&terms[1][at]),
+                    field(&terms[2][at]),
+                    field(&terms[3][at]),
+                ])
+            };
+            let mix = |field: fn(&LightTerm) -> f32| {
+                weight(0) * sample(0, field)
+                    + weight(1) * sample(1, field)
+                    + weight(2) * sample(2, field)
+                    + weight(3) * sample(3, field)
+            };
+            [mix(|t| t.scale), mix(|t| t.diffuse), mix(|t| t.specular)]
+        });
+        compose_quad(&surfaces, lighting)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::CostHeatList;
+    use crate::geometry::{FrameGeometry, Triangle};
+    use crate::memory::{FramebufferLayout, Stream};
+    use crate::scheme::{StageCosts, ViewContext};
+    use crate::shader::{ShaderEnv, ShadingLight};
+    use crate::texture::MipTexture;
+    use crate::vertex_stage::setup_view;
+    use glam::Mat4;
+    use proptest::prelude::*;
+    use shadetrace_formats::results::ShadingCacheStats;
+    use shadetrace_formats::{AlphaMode, LightKind, Material, MaterialMaps, SurfaceMaps, Texture, Wrap};
+
+    /// A light term's value of every kind: ordinary, either zero, infinite and NaN.
+    fn any_term() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            -2.0f32..2.0,
+            prop::sample::select(vec![0.0, -0.0, f32::INFINITY, f32::NAN])
+        ]
+    }
+
+    proptest! {
+        /// A quad none of whose lanes refines an effect, resampled four lanes at a time,
+        /// gives each lane the colour bits, the fine lane (blocks, pixel, coarse lane) and
+        /// the texture reads, in order, of the lane-by-lane fine stage: one or two lights,
+        /// lanes from different blocks, a base colour texture, occlusion and emissive maps
+        /// or not, and terms and weights of every kind.
+        #[test]
+        fn resampled_quads_are_each_lanes_own(
+            lights in 1usize..3,
+            terms in prop::collection::vec((any_term(), any_term(), any_term()), 16),
+            weights in prop::array::uniform4(prop::array::uniform4(prop_oneof![-0.5f32..1.5, Just(0.0), Just(f32::NAN)])),
+            blocks_of_lanes in prop::array::uniform4(0usize..2),
+            maps in prop::array::uniform3(any::<bool>()),
+            lanes in 1u8..16,
+            (x, y) in (0u32..15, 0u32..11),
+        ) {
+            let [textured, occlusion, emissive] = maps;
+            let geometry = FrameGeometry {
+                positions: vec![Vec3::new(-3.0, -3.0, -2.0), Vec3::new(3.0, -3.0, -2.5), Vec3::new(0.0, 3.0, -3.0)],
+                normals: vec![Vec3::Z, Vec3::new(0.3, 0.1, 1.0), Vec3::Y],
+                uvs: vec![Vec2::ZERO, Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0)],
+                tangents: Vec::new(),
+                triangles: vec![Triangle { vertices: [0, 1, 2], material: 0, patch: u32::MAX, mesh: 0 }],
+            };
+            let view_projection = Mat4::perspective_rh(1.2, 32.0 / 24.0, 0.1, 10.0);
+            let (setups, _) = setup_view(&geometry, &[true], view_projection, 32, 24);
+            let material = Material {
+                name: String::new(),
+                base_color: [0.8, 0.5, 0.3, 1.0],
+                base_color_texture: textured.then_some(0),
+                specular_exponent: 16.0,
+                specular_strength: 0.5,
+                alpha: AlphaMode::Opaque,
+                double_sided: true,
+            };
+            let texture = Texture {
+                name: String::new(),
+                width: 8,
+                height: 8,
+                wrap_u: Wrap::Repeat,
+                wrap_v: Wrap::Repeat,
+                rgba8: (0..8 * 8 * 4).map(|i: u32| (i.wrapping_mul(37) % 251) as u8).collect(),
+            };
+            let (texture, _) = MipTexture::build(&texture, 0, true);
+            let maps = SurfaceMaps {
+                materials: vec![MaterialMaps {
+                    normal: None,
+                    metallic_roughness: None,
+                    occlusion: occlusion.then_some((0, 0.8)),
+                    emissive: [0.2, 0.1, 0.0],
+                    emissive_texture: emissive.then_some(0),
+                }],
+                tangents: Vec::new(),
+                linear_textures: Vec::new(),
+            };
+            let radiance = [Vec3::new(1.0, 0.9, 0.8), Vec3::splat(0.5)];
+            let lights: Vec<ShadingLight> = radiance[..lights]
+                .iter()
+                .map(|&r| ShadingLight::new(LightKind::Directional { direction: Vec3::NEG_Y }, r, false))
+                .collect();
+            let env = ShaderEnv {
+                materials: std::slice::from_ref(&material),
+                textures: std::slice::from_ref(&texture),
+                lights: &lights,
+                shadow: None,
+                receivers: None,
+                maps: &maps,
+            };
+            let ctx = UnitContext {
+                view_ctx: ViewContext {
+                    view: 0,
+                    eye: Vec3::ZERO,
+                    view_projections: [view_projection; 2],
+                    eyes: [Vec3::ZERO; 2],
+                    depth_range: (0.1, 10.0),
+                    width: 32,
+                    height: 24,
+                    geometry: &geometry,
+                    env: &env,
+                    setups: &setups,
+                    layout: FramebufferLayout::new(32, 24, 1),
+                },
+                setup: &setups[0],
+                triangle: &geometry.triangles[0],
+            };
+            let mut job = MultirateJob::new(MultirateConfig::default(), lights.len(), 16);
+            job.terms.resize(lights.len(), LightTerm::default());
+            job.blocks = (0..2)
+                .map(|b| {
+                    let mut block = CoarseBlock::new(0, 0, 4);
+                    block.terms = terms[8 * b..8 * b + 4 * lights.len()]
+                        .iter()
+                        .map(|&(scale, diffuse, specular)| LightTerm { scale, diffuse, specular })
+                        .collect();
+                    block
+                })
+                .collect();
+            let sources = std::array::from_fn(|l| (blocks_of_lanes[l], weights[l], l));
+            let quad = ShadeQuad { x: 2 * x, y: 2 * y, lanes };
+            let attributes = ctx.quad_attributes(quad.x, quad.y).lanes();
+            let derivatives = (attributes[1].uv - attributes[0].uv, attributes[2].uv - attributes[0].uv);
+            let mut shade = |resampled: bool| {
+                let (mut cost, mut heat, mut cache) = (StageCosts::default(), CostHeatList::new(false), ShadingCacheStats::default());
+                let mut log = AccessLog::new();
+                let mut acc = Accounting {
+                    cost: &mut cost,
+                    log: &mut log,
+                    heat: &mut heat,
+                    refinement: &mut |_, _| panic!("no lane refines"),
+                    cache: &mut cache,
+                    traffic: &mut |_, _| {},
+                    count: &mut |_, _| {},
+                };
+                job.fine_used = 0;
+                let colours = match resampled {
+                    true => job.shade_quad_resampled(&ctx, &quad, &attributes, derivatives, &sources, &mut acc),
+                    false => job.shade_quad_lanes(&ctx, &quad, &attributes, derivatives, &sources, &mut acc),
+                };
+                let fine: Vec<_> = job.fine_lanes[..4]
+                    .iter()
+                    .map(|f| (f.blocks.clone(), f.useful, f.pixel, f.key, f.coarse_lane))
+                    .collect();
+                (colours.map(|c| c.to_array().map(f32::to_bits)), fine, log.expanded(0, Stream::Texture))
+            };
+            let (together, lane_by_lane) = (shade(true), shade(false));
+            prop_assert_eq!(together.0, lane_by_lane.0);
+            prop_assert_eq!(together.1, lane_by_lane.1);
+            prop_assert_eq!(together.2, lane_by_lane.2);
+        }
     }
 }
