@@ -43,20 +43,27 @@ impl CoarseBlock {
         x >= self.x0 && y >= self.y0 && x < self.x0 + self.size && y < self.y0 + self.size
     }
 
-    /// Bilinear weights of a pixel centre between the samples (extrapolating outside them).
-    pub(super) fn weights(&self, x: u32, y: u32) -> [f32; 4] {
-        let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+    /// The bilinear weight along x of pixel column `x`'s centre between the samples
+    /// (extrapolating outside them); 0 where the samples share a column.
+    fn u_at(&self, x: u32) -> f32 {
         let s = &self.samples;
-        let u = if s[1].x > s[0].x {
-            (p.x - s[0].x) / (s[1].x - s[0].x)
-        } else {
-            0.0
-        };
-        let v = if s[2].y > s[0].y {
-            (p.y - s[0].y) / (s[2].y - s[0].y)
-        } else {
-            0.0
-        };
+        match s[1].x > s[0].x {
+            true => (x as f32 + 0.5 - s[0].x) / (s[1].x - s[0].x),
+            false => 0.0,
+        }
+    }
+
+    /// [`Self::u_at`] along y, of pixel row `y`.
+    fn v_at(&self, y: u32) -> f32 {
+        let s = &self.samples;
+        match s[2].y > s[0].y {
+            true => (y as f32 + 0.5 - s[0].y) / (s[2].y - s[0].y),
+            false => 0.0,
+        }
+    }
+
+    /// The bilinear weights of the four samples at a pixel centre, from its `u_at` and `v_at`.
+    fn weights(u: f32, v: f32) -> [f32; 4] {
         [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
     }
 
@@ -122,6 +129,11 @@ impl MultirateJob {
         };
         *last = block;
         let b = &self.blocks[block];
+        // A quad's two columns and two rows, each worked out once for the lanes that share it.
+        let (u, v) = (
+            [b.u_at(quad.x), b.u_at(quad.x + 1)],
+            [b.v_at(quad.y), b.v_at(quad.y + 1)],
+        );
         Some(std::array::from_fn(|l| {
             let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
             let coarse_lane = if b.contains(x, y) {
@@ -129,7 +141,7 @@ impl MultirateJob {
             } else {
                 b.first_lane
             };
-            (block, b.weights(x, y), coarse_lane)
+            (block, CoarseBlock::weights(u[l & 1], v[l >> 1]), coarse_lane)
         }))
     }
 }
