@@ -9,6 +9,7 @@ pub mod by_name;
 pub mod command;
 pub mod cost;
 pub mod cost_table;
+pub mod float;
 pub mod geometry;
 pub mod images;
 pub mod lanes;

@@ -7,6 +7,7 @@
 use glam::{Vec2, Vec4};
 use shadetrace_formats::{Texture, Wrap};
 
+use crate::float::floor;
 use crate::memory::{AccessLog, Stream};
 
 /// Texels per block edge (8x8 RGBA8 texels = one 256-byte line).
@@ -121,7 +122,7 @@ impl MipTexture {
         };
         let max_level = (self.levels.len() - 1) as f32;
         let lod = lod.clamp(0.0, max_level);
-        let l0 = lod.floor() as usize;
+        let l0 = floor(lod) as usize;
         let t = lod - l0 as f32;
         let a = self.bilinear(l0, uv, log);
         if t > 0.0 && l0 + 1 < self.levels.len() {
@@ -136,7 +137,7 @@ impl MipTexture {
         let l = &self.levels[level];
         let x = uv.x * l.width as f32 - 0.5;
         let y = uv.y * l.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
+        let (x0, y0) = (floor(x), floor(y));
         // Non-finite coordinates (only degenerate helper lanes produce them) read texel 0
         // unfiltered instead of spreading NaN.
         let (fx, fy) = if x.is_finite() && y.is_finite() {

@@ -22,6 +22,7 @@ use super::block::{corner_surfaces, CoarseBlock};
 use super::config::{CacheSpace, CoarseMode};
 use super::MultirateJob;
 use crate::cost_table::Block;
+use crate::float::floor;
 use crate::memory::AccessLog;
 use crate::raster::pixel_center;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
@@ -171,7 +172,7 @@ pub(super) struct Cell {
 impl Cell {
     fn containing(param: Vec2, level: i32) -> (Cell, Vec2) {
         let scaled = param * pow2(level);
-        let q = scaled.floor();
+        let q = Vec2::new(floor(scaled.x), floor(scaled.y));
         let cell = Cell {
             level,
             qx: q.x as i32,
