@@ -6,7 +6,7 @@
 /// integer), infinite or NaN, `x` itself, as `floorf` returns it.
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    if !(x.abs() < 8_388_608.0) {
+    if x.is_nan() || x.abs() >= 8_388_608.0 {
         return x;
     }
     let truncated = x as i32 as f32;

@@ -61,6 +61,35 @@ pub struct ViewContext<'a> {
     pub layout: FramebufferLayout,
 }
 
+/// For tests: the unit of the first setup triangle of a `width` x `height` view from the
+/// origin (the near and far planes at 0.1 and 10).
+#[cfg(test)]
+pub(crate) fn test_unit<'a>(
+    geometry: &'a FrameGeometry,
+    env: &'a ShaderEnv<'a>,
+    setups: &'a [SetupTriangle],
+    view_projection: Mat4,
+    (width, height): (u32, u32),
+) -> UnitContext<'a> {
+    UnitContext {
+        view_ctx: ViewContext {
+            view: 0,
+            eye: Vec3::ZERO,
+            view_projections: [view_projection; 2],
+            eyes: [Vec3::ZERO; 2],
+            depth_range: (0.1, 10.0),
+            width,
+            height,
+            geometry,
+            env,
+            setups,
+            layout: FramebufferLayout::new(width, height, 1),
+        },
+        setup: &setups[0],
+        triangle: &geometry.triangles[setups[0].prim as usize],
+    }
+}
+
 /// What a scheme may read while shading one unit: its view and its triangle.
 pub struct UnitContext<'a> {
     pub view_ctx: ViewContext<'a>,
@@ -478,23 +507,7 @@ mod tests {
             prop_assume!(!setups.is_empty());
             let maps = SurfaceMaps::default();
             let env = ShaderEnv { materials: &[], textures: &[], lights: &[], shadow: None, receivers: None, maps: &maps };
-            let ctx = UnitContext {
-                view_ctx: ViewContext {
-                    view: 0,
-                    eye: Vec3::ZERO,
-                    view_projections: [view_projection; 2],
-                    eyes: [Vec3::ZERO; 2],
-                    depth_range: (0.1, 10.0),
-                    width: 64,
-                    height: 48,
-                    geometry: &geometry,
-                    env: &env,
-                    setups: &setups,
-                    layout: FramebufferLayout::new(64, 48, 1),
-                },
-                setup: &setups[0],
-                triangle: &geometry.triangles[0],
-            };
+            let ctx = test_unit(&geometry, &env, &setups, view_projection, (64, 48));
             let (x, y) = (2 * x, 2 * y);
             let quad = ctx.quad_attributes(x, y);
             let bits = |v: &[f32]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();

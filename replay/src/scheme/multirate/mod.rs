@@ -594,8 +594,8 @@ mod tests {
     use super::*;
     use crate::cost::CostHeatList;
     use crate::geometry::{FrameGeometry, Triangle};
-    use crate::memory::{FramebufferLayout, Stream};
-    use crate::scheme::{StageCosts, ViewContext};
+    use crate::memory::Stream;
+    use crate::scheme::StageCosts;
     use crate::shader::{ShaderEnv, ShadingLight};
     use crate::texture::MipTexture;
     use crate::vertex_stage::setup_view;
@@ -680,23 +680,7 @@ mod tests {
                 receivers: None,
                 maps: &maps,
             };
-            let ctx = UnitContext {
-                view_ctx: ViewContext {
-                    view: 0,
-                    eye: Vec3::ZERO,
-                    view_projections: [view_projection; 2],
-                    eyes: [Vec3::ZERO; 2],
-                    depth_range: (0.1, 10.0),
-                    width: 32,
-                    height: 24,
-                    geometry: &geometry,
-                    env: &env,
-                    setups: &setups,
-                    layout: FramebufferLayout::new(32, 24, 1),
-                },
-                setup: &setups[0],
-                triangle: &geometry.triangles[0],
-            };
+            let ctx = crate::scheme::test_unit(&geometry, &env, &setups, view_projection, (32, 24));
             let mut job = MultirateJob::new(MultirateConfig::default(), lights.len(), 16);
             job.terms.resize(lights.len(), LightTerm::default());
             job.blocks = (0..2)
