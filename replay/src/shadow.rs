@@ -42,10 +42,13 @@ pub struct ShadowMap {
     pub size: u32,
     pub view_projection: Mat4,
     depth: Vec<f32>,
-    /// (min, max) depth of each BLOCK x BLOCK block, row-major: a PCF footprint whose
-    /// blocks all lie behind (or all in front of) the receiver is decided without reading
-    /// its 25 texels, which for most fragments are far apart in the 16 MiB map.
-    block_ranges: Vec<(f32, f32)>,
+    /// Blocks per row of the map.
+    blocks: u32,
+    /// Per BLOCK x BLOCK block (row-major), the (min, max) depth of the blocks a PCF
+    /// footprint starting in it spans ([`FootprintRanges`]): a footprint whose blocks all lie
+    /// behind (or all in front of) the receiver is decided without reading its 25 texels,
+    /// which for most fragments are far apart in the 16 MiB map.
+    footprint_ranges: Vec<FootprintRanges>,
     /// First cache line of the map in the texture address space.
     pub base_line: u64,
     /// Depth bias in map depth units per unit of slope.
@@ -120,12 +123,12 @@ impl ShadowMap {
                 depth.iter().filter(|&&d| d < 1.0).count() as u64
             })
             .sum();
-        let block_ranges = block_ranges(&depth, size);
         ShadowMap {
             size,
             view_projection,
+            blocks: size.div_ceil(BLOCK),
+            footprint_ranges: footprint_ranges(&block_ranges(&depth, size), size.div_ceil(BLOCK) as usize),
             depth,
-            block_ranges,
             base_line,
             texel_depth: 1.0 / size as f32,
             stats: ShadowPassStats {
@@ -332,7 +335,7 @@ impl ShadowMap {
     #[inline(always)]
     pub fn filter(&self, footprint: PcfFootprint, log: &mut AccessLog) -> f32 {
         let PcfFootprint { tx, ty, receiver } = footprint;
-        let blocks_x = self.size.div_ceil(BLOCK);
+        let blocks_x = self.blocks;
         let last = self.size as i32 - 1;
         let mut lit = 0u32;
         if tx - PCF_RADIUS >= 0 && tx + PCF_RADIUS <= last {
@@ -351,13 +354,8 @@ impl ShadowMap {
                 true => PCF_TAPS as u32,
                 false => by1 * BLOCK - (ty - PCF_RADIUS) as u32,
             };
-            let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
-            for by in [by0, by1] {
-                for bx in [b0, b1] {
-                    let (lo, hi) = self.block_ranges[(by * blocks_x + bx) as usize];
-                    (near, far) = (near.min(lo), far.max(hi));
-                }
-            }
+            let span = usize::from(b1 != b0) | usize::from(by1 != by0) << 1;
+            let (near, far) = self.footprint_ranges[(by0 * blocks_x + b0) as usize][span];
             // Every tap compares alike: the count is known without the taps.
             let decided = if receiver <= near {
                 Some(1.0)
@@ -462,6 +460,32 @@ fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
         .collect()
 }
 
+/// A block's entry of [`ShadowMap::footprint_ranges`]: the (min, max) depth of the block
+/// alone, with the block to its right, with the block below it, and of the 2x2 blocks it
+/// leads, indexed by `right | below << 1`. A footprint is narrower and shorter than a
+/// block, so these are the blocks any footprint spans. At the map's last column or row a
+/// missing neighbour is left out (no footprint spans it).
+type FootprintRanges = [(f32, f32); 4];
+
+/// [`FootprintRanges`] of every block from the blocks' own ranges (`blocks` per row). Min
+/// and max are exact in any order, and a block holding a NaN (the whole range) keeps every
+/// span that holds it undecided.
+fn footprint_ranges(block: &[(f32, f32)], blocks: usize) -> Vec<FootprintRanges> {
+    let union = |(lo, hi): (f32, f32), (lo2, hi2): (f32, f32)| (lo.min(lo2), hi.max(hi2));
+    (0..block.len())
+        .map(|i| {
+            let (bx, by) = (i % blocks, i / blocks);
+            let at = |right: usize, below: usize| {
+                let (x, y) = ((bx + right).min(blocks - 1), (by + below).min(blocks - 1));
+                block[y * blocks + x]
+            };
+            let right = union(at(0, 0), at(1, 0));
+            let below = union(at(0, 0), at(0, 1));
+            [at(0, 0), right, below, union(right, union(at(0, 1), at(1, 1)))]
+        })
+        .collect()
+}
+
 /// The depth range of no receiver.
 const EMPTY_RANGE: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
 
@@ -555,7 +579,8 @@ mod tests {
         ShadowMap {
             size,
             view_projection: Mat4::IDENTITY,
-            block_ranges: block_ranges(&depth, size),
+            blocks: size.div_ceil(BLOCK),
+            footprint_ranges: footprint_ranges(&block_ranges(&depth, size), size.div_ceil(BLOCK) as usize),
             depth,
             base_line: 0,
             texel_depth: 1.0 / size as f32,
@@ -617,6 +642,34 @@ mod tests {
     }
 
     proptest! {
+        /// A footprint decided by its blocks' depth ranges is decided as its 25 taps are
+        /// counted, in whichever blocks (one, two side by side, two stacked, or 2x2) and at
+        /// whichever edge of the map it falls.
+        #[test]
+        fn pcf_decides_by_every_block_the_footprint_spans(
+            tx in -3i32..67,
+            ty in -3i32..67,
+            // Depth steps from block to block: the receiver at one block's depth, or a hair
+            // in front of it, is decided by its blocks' ranges or counted tap by tap.
+            seed in 1u32..1000,
+            at_block in 0u32..64,
+            nudge in prop_oneof![Just(0.0f32), Just(-1e-6), Just(1e-6)],
+        ) {
+            let block_depth = |bx: u32, by: u32| ((bx * 7 + by * 13) * seed % 97) as f32 / 97.0;
+            let depth = (0..64 * 64).map(|i| block_depth(i % 64 / BLOCK, i / 64 / BLOCK)).collect();
+            let map = map_with(64, depth);
+            let receiver = block_depth(at_block % 8, at_block / 8) + nudge;
+            let got = map.filter(PcfFootprint { tx, ty, receiver }, &mut AccessLog::new());
+            let mut lit = 0;
+            for dy in -PCF_RADIUS..=PCF_RADIUS {
+                for dx in -PCF_RADIUS..=PCF_RADIUS {
+                    let (sx, sy) = ((tx + dx).clamp(0, 63), (ty + dy).clamp(0, 63));
+                    lit += u32::from(receiver <= map.depth[(sy * 64 + sx) as usize]);
+                }
+            }
+            prop_assert_eq!(got, lit as f32 / 25.0);
+        }
+
         /// The block ranges only skip work: the lit fraction is the 25 taps' count, and the
         /// log the same accesses, wherever the footprint falls.
         #[test]
