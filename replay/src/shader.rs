@@ -411,20 +411,51 @@ impl ShaderEnv<'_> {
         match (list, &mut *terms, blocks.lights.as_mut_slice()) {
             // One light (the usual scene): its term without a loop around it, whose set-up
             // per light costs a lane more than the loop's one step.
-            (None, [term], [flags]) => self.lane_term(quad, l, 0, (exponent, strength), term, flags, log),
+            (None, [term], [flags]) => self.lane_term(quad, l, 0, (exponent, strength), true, term, flags, log),
             (None, terms, lights) => {
                 for (k, (term, flags)) in terms.iter_mut().zip(lights).enumerate() {
-                    self.lane_term(quad, l, k, (exponent, strength), term, flags, log);
+                    self.lane_term(quad, l, k, (exponent, strength), true, term, flags, log);
                 }
             }
             (Some(list), terms, lights) => {
                 for &k in list {
                     let k = k as usize;
-                    self.lane_term(quad, l, k, (exponent, strength), &mut terms[k], &mut lights[k], log);
+                    self.lane_term(
+                        quad,
+                        l,
+                        k,
+                        (exponent, strength),
+                        true,
+                        &mut terms[k],
+                        &mut lights[k],
+                        log,
+                    );
                 }
             }
         }
         self.combine(terms)
+    }
+
+    /// Lane `l`'s [`Self::light_terms`] of every effect (one term per light, into `terms`) from
+    /// its quad's arithmetic: the lane's reads, blocks and Phong powers, as
+    /// [`Self::light_terms`] makes them. A multi-rate block's coarse stage shades its four
+    /// corners so.
+    #[allow(clippy::too_many_arguments)]
+    pub fn lane_terms(
+        &self,
+        quad: &QuadLighting,
+        l: usize,
+        material: u32,
+        surface: &SurfacePoint,
+        terms: &mut [LightTerm],
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) {
+        blocks.take(Block::CoarseSetup);
+        let phong = self.phong_parameters(material, surface, blocks, log);
+        for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
+            self.lane_term(quad, l, k, phong, false, term, flags, log);
+        }
     }
 
     /// The four lanes' colours from their quad's arithmetic: each lane's
@@ -537,7 +568,8 @@ impl ShaderEnv<'_> {
         }
     }
 
-    /// Light `k`'s term at lane `l` of a quad: [`Self::light_term`] from the quad's arithmetic.
+    /// Light `k`'s term at lane `l` of a quad: [`Self::light_term`] from the quad's arithmetic
+    /// (`only_combined` as [`Self::directional_term`] takes it).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn lane_term(
@@ -546,6 +578,7 @@ impl ShaderEnv<'_> {
         l: usize,
         k: usize,
         (exponent, strength): (f32, f32),
+        only_combined: bool,
         term: &mut LightTerm,
         flags: &mut LightBlocks,
         log: &mut AccessLog,
@@ -560,7 +593,16 @@ impl ShaderEnv<'_> {
                     strength,
                 };
                 let footprint = |_: &ShadowMap| quad.footprints[k][l];
-                self.directional_term(light, &shading, footprint, Effects::all(), true, term, flags, log)
+                self.directional_term(
+                    light,
+                    &shading,
+                    footprint,
+                    Effects::all(),
+                    only_combined,
+                    term,
+                    flags,
+                    log,
+                )
             }
             LightKind::Point { .. } | LightKind::Spot { .. } => {
                 let PointDirections { n, r } = quad.directions[l];
@@ -1030,7 +1072,8 @@ mod tests {
         /// gives each lane the bits, the blocks and the shadow-map reads of the lane's own
         /// lighting: the two are written apart and must not drift. Every kind of light, with
         /// and without a light list, and Phong parameters out of range (the quad's skips a
-        /// specular term a full shadow hides only where that keeps the bits).
+        /// specular term a full shadow hides only where that keeps the bits). The same for
+        /// each lane's terms, which keep that specular term.
         #[test]
         fn quad_lighting_is_each_lanes_own(
             eye in vec3(),
@@ -1105,6 +1148,15 @@ mod tests {
                     None => env.lighting(&inputs, &mut lane_blocks, &mut lane_log),
                 };
                 prop_assert_eq!(bits(got), bits(want));
+                prop_assert_eq!(&quad_blocks, &lane_blocks);
+                // Every light's terms (a multi-rate block's corner): each effect's bits, the
+                // blocks and the reads, after the lighting's in both logs.
+                let (mut quad_terms, mut own_terms) = ([LightTerm::default(); 4], [LightTerm::default(); 4]);
+                let (mut quad_blocks, mut lane_blocks) = (BlockSet::new(lights.len()), BlockSet::new(lights.len()));
+                env.lane_terms(&quad, l, 0, &surface, &mut quad_terms, &mut quad_blocks, &mut quad_log);
+                env.light_terms(&inputs, Effects::all(), &mut own_terms, &mut lane_blocks, &mut lane_log);
+                let term_bits = |t: &[LightTerm; 4]| t.map(|t| [t.scale, t.diffuse, t.specular].map(f32::to_bits));
+                prop_assert_eq!(term_bits(&quad_terms), term_bits(&own_terms));
                 prop_assert_eq!(&quad_blocks, &lane_blocks);
             }
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);

@@ -26,9 +26,10 @@ use super::shading_cache::{CacheKey, ShadingCache};
 use super::{Accounting, LaneAttributes, SchemeJob, ShadeQuad, ShadingScheme, UnitContext};
 use crate::cost::{BlockSet, SimdPacker};
 use crate::cost_table::Block;
+use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
-use crate::shader::{compose, compose_quad, Effects, LightTerm, LightingInputs, Surface, SurfacePoint};
+use crate::shader::{compose, compose_quad, Effects, LightTerm, LightingInputs, QuadLighting, Surface, SurfacePoint};
 use block::{corner_surfaces, sample_attributes, CoarseBlock};
 pub use config::{
     CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
@@ -127,6 +128,7 @@ impl MultirateJob {
             quad_params: Vec::new(),
             quad_levels: Vec::new(),
             sources: Vec::new(),
+            quad: QuadLighting::default(),
         }
     }
 }
@@ -214,6 +216,8 @@ struct MultirateJob {
     quad_params: Vec<[Vec2; 4]>,
     quad_levels: Vec<[i32; 4]>,
     sources: Vec<[LaneSource; 4]>,
+    /// The coarse stage's four corners, shaded as a quad's lanes ([`ShaderEnv::quad_lighting`]).
+    quad: QuadLighting,
 }
 
 impl SchemeJob for MultirateJob {
@@ -378,14 +382,26 @@ impl MultirateJob {
             }
         }
         let n = self.lights;
+        let material = ctx.triangle.material;
+        // The corners' arithmetic four at a time where the scene allows it
+        // ([`ShaderEnv::quad_lighting`]); each corner's reads and blocks stay its own, in
+        // corner order.
+        let (p, nrm) = (Vec3x4::from_lanes(&positions), Vec3x4::from_lanes(&normals));
+        let four_wide = ctx.env.quad_lighting(material, ctx.eye, p, nrm, &mut self.quad);
         for i in 0..4 {
-            let lane = self.shade_coarse_fragment(
-                ctx,
-                pixels[i],
-                (positions[i], normals[i], surfaces[i]),
-                &mut b.terms[i * n..(i + 1) * n],
-                log,
-            );
+            let terms = &mut b.terms[i * n..(i + 1) * n];
+            let lane = match four_wide {
+                true => {
+                    let lane = self.coarse_lane(pixels[i], false);
+                    let blocks = &mut self.coarse_lanes[lane].blocks;
+                    ctx.env
+                        .lane_terms(&self.quad, i, material, &surfaces[i], terms, blocks, log);
+                    lane
+                }
+                false => {
+                    self.shade_coarse_fragment(ctx, pixels[i], (positions[i], normals[i], surfaces[i]), terms, log)
+                }
+            };
             if i == 0 {
                 b.first_lane = lane;
             }
