@@ -17,12 +17,14 @@
 //! the tile-pair paper observes of AMFS.
 
 use glam::{Mat2, Vec2, Vec3, Vec4};
+use wide::bytemuck::cast;
+use wide::{f32x4, i32x4};
 
 use super::block::{corner_surfaces, CoarseBlock};
 use super::config::{CacheSpace, CoarseMode};
 use super::MultirateJob;
 use crate::cost_table::Block;
-use crate::float::floor;
+use crate::float::floor4;
 use crate::memory::AccessLog;
 use crate::raster::pixel_center;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
@@ -161,6 +163,16 @@ fn pow2(level: i32) -> f32 {
     }
 }
 
+/// [`pow2`] of four levels at once: the exponent bits of all four where every level gives a
+/// normal number, as they almost always do.
+fn pow2_lanes(levels: [i32; 4]) -> f32x4 {
+    let biased = i32x4::new(levels) + i32x4::splat(127);
+    match (biased.simd_gt(i32x4::ZERO) & biased.simd_lt(i32x4::splat(255))).all() {
+        true => cast(biased << 23),
+        false => f32x4::new(levels.map(pow2)),
+    }
+}
+
 /// A lattice cell at one level: the block of an object-space scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Cell {
@@ -170,15 +182,27 @@ pub(super) struct Cell {
 }
 
 impl Cell {
-    fn containing(param: Vec2, level: i32) -> (Cell, Vec2) {
-        let scaled = param * pow2(level);
-        let q = Vec2::new(floor(scaled.x), floor(scaled.y));
-        let cell = Cell {
-            level,
-            qx: q.x as i32,
-            qy: q.y as i32,
-        };
-        (cell, scaled - q)
+    /// Per lane of a quad, the cell holding its parameter at its level and where in it (a
+    /// fraction of the cell), four lanes at a time.
+    #[inline]
+    fn containing_quad(params: [Vec2; 4], levels: [i32; 4]) -> [(Cell, Vec2); 4] {
+        let scale = pow2_lanes(levels);
+        let (x, y) = (
+            f32x4::new(params.map(|p| p.x)) * scale,
+            f32x4::new(params.map(|p| p.y)) * scale,
+        );
+        let (qx, qy) = (floor4(x), floor4(y));
+        let (fx, fy) = ((x - qx).to_array(), (y - qy).to_array());
+        // Truncated as `as i32` truncates: saturated, NaN to zero.
+        let (qx, qy) = (qx.trunc_int().to_array(), qy.trunc_int().to_array());
+        std::array::from_fn(|l| {
+            let cell = Cell {
+                level: levels[l],
+                qx: qx[l],
+                qy: qy[l],
+            };
+            (cell, Vec2::new(fx[l], fy[l]))
+        })
     }
 
     /// Bilinear weights of a point at `frac` (fraction of the cell) between the corners.
@@ -283,8 +307,9 @@ impl MultirateJob {
             let params = self.quad_params[q];
             let mut sources = [LaneSource::default(); 4];
             let anchor = quad.lanes.trailing_zeros().min(3) as usize;
+            let containing = Cell::containing_quad(params, levels[q]);
             for l in (0..4).filter(|&l| quad.lanes & (1 << l) != 0 || l == anchor) {
-                let (cell, frac) = Cell::containing(params[l], levels[q][l]);
+                let (cell, frac) = containing[l];
                 let block = match self.cells.iter().rposition(|c| c.cell == cell) {
                     Some(b) => b,
                     None => {
@@ -405,9 +430,45 @@ impl MultirateJob {
 
 #[cfg(test)]
 mod tests {
-    use super::pow2;
+    use super::{pow2, Cell};
+    use glam::Vec2;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Each lane's cell and fraction are those of its own parameter and level, bit for
+        /// bit: fractions either side of zero, huge and tiny parameters, infinities and NaN,
+        /// at levels from subnormal scales to overflowing ones.
+        #[test]
+        fn quad_cells_are_each_lanes_own(
+            params in prop::array::uniform4((any::<u32>(), -64.0f32..64.0, any::<bool>())),
+            levels in prop::array::uniform4(-160i32..140),
+        ) {
+            let params = params.map(|(bits, small, raw)| match raw {
+                true => Vec2::new(f32::from_bits(bits), small),
+                false => Vec2::new(small, -small),
+            });
+            let got = Cell::containing_quad(params, levels);
+            for l in 0..4 {
+                let scaled = params[l] * pow2(levels[l]);
+                let q = scaled.floor();
+                let cell = Cell { level: levels[l], qx: q.x as i32, qy: q.y as i32 };
+                let bits = |v: Vec2| v.to_array().map(f32::to_bits);
+                prop_assert_eq!(got[l].0, cell);
+                prop_assert_eq!(bits(got[l].1), bits(scaled - q));
+            }
+        }
+    }
 
     /// The shortcut gives `exp2f`'s bits at every level, normal, subnormal or overflowing.
+    #[test]
+    fn pow2_lanes_are_each_levels_pow2() {
+        for level in -160..=140 {
+            let levels = [level, 0, -level, level / 2];
+            let got = super::pow2_lanes(levels).to_array().map(f32::to_bits);
+            assert_eq!(got, levels.map(|l| pow2(l).to_bits()), "level {level}");
+        }
+    }
+
     #[test]
     fn pow2_is_exp2f_at_integers() {
         for level in -160..=140 {
