@@ -111,8 +111,8 @@ impl SetupTriangle {
     /// [`Self::original_bary`] at four samples at once, component-major (`[x, y, z]`, each
     /// per sample): the same operations sample by sample, so the same bits, laid out as
     /// arrays of four so that they run as SIMD instructions (a quad's divisions are most of
-    /// its interpolation).
-    #[inline]
+    /// its interpolation). Always inlined: called out of line, its arrays go through memory.
+    #[inline(always)]
     pub fn original_barys(&self, e: [[i64; 3]; 4]) -> [[f32; 4]; 3] {
         let m: [[f64; 4]; 3] = std::array::from_fn(|i| e.map(|e| e[i] as f64 * self.inv_w[i] as f64));
         let sum: [f64; 4] = std::array::from_fn(|l| {

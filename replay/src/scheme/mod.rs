@@ -169,7 +169,21 @@ impl UnitContext<'_> {
     #[inline]
     pub fn quad_attributes(&self, x: u32, y: u32) -> QuadAttributes {
         let (px, py) = pixel_center(x, y);
-        let b = self.setup.original_barys(self.setup.quad_edges(px, py)).map(f32x4::new);
+        self.attributes_of_edges(self.setup.quad_edges(px, py))
+    }
+
+    /// [`Self::attributes_at`] of four fixed-point screen positions, bit for bit, four at a
+    /// time (a multi-rate block's corners).
+    #[inline]
+    pub fn attributes_at_four(&self, at: [(i64, i64); 4]) -> QuadAttributes {
+        self.attributes_of_edges(at.map(|(px, py)| self.setup.edges(px, py)))
+    }
+
+    /// The attributes at four samples from their edge values: [`Self::attributes_at`]'s
+    /// barycentrics and [`Self::interpolate`]'s operations, four lanes at a time.
+    #[inline(always)]
+    fn attributes_of_edges(&self, edges: [[i64; 3]; 4]) -> QuadAttributes {
+        let b = self.setup.original_barys(edges).map(f32x4::new);
         let [i, j, k] = self.triangle.vertices.map(|v| v as usize);
         let g = self.geometry;
         // glam's `p[i] * b.x + p[j] * b.y + p[k] * b.z`, lane by lane.
@@ -482,7 +496,8 @@ mod tests {
 
     proptest! {
         /// A quad's attributes, four lanes at a time, are each lane's own, bit for bit, in
-        /// perspective and outside the triangle too (helper lanes extrapolate).
+        /// perspective and outside the triangle too (helper lanes extrapolate); so are four
+        /// samples' anywhere.
         #[test]
         fn quad_attributes_are_each_lanes_own(
             positions in prop::array::uniform3(vec3(-1.0..1.0)),
@@ -491,6 +506,8 @@ mod tests {
             uvs in prop::array::uniform3(prop::array::uniform2(-4.0f32..4.0)),
             x in 0u32..32,
             y in 0u32..24,
+            // Four fixed-point positions anywhere on the view and beyond (a block's corners).
+            at in prop::array::uniform4((-2048i64..18432, -2048i64..14336)),
         ) {
             let geometry = FrameGeometry {
                 positions: std::array::from_fn::<_, 3, _>(|v| {
@@ -518,6 +535,10 @@ mod tests {
                 prop_assert_eq!(bits(&got.uv.to_array()), bits(&want.uv.to_array()));
                 let lanes = quad.lanes();
                 prop_assert_eq!(bits(&lanes[l].position.to_array()), bits(&got.position.to_array()));
+                let (got, want) = (ctx.attributes_at_four(at).lane(l), ctx.attributes_at(at[l].0, at[l].1));
+                prop_assert_eq!(bits(&got.position.to_array()), bits(&want.position.to_array()));
+                prop_assert_eq!(bits(&got.normal.to_array()), bits(&want.normal.to_array()));
+                prop_assert_eq!(bits(&got.uv.to_array()), bits(&want.uv.to_array()));
             }
         }
     }

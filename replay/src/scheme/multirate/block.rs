@@ -154,10 +154,9 @@ pub(super) fn sample_fixed(s: Vec2) -> (i64, i64) {
     )
 }
 
-/// Interpolated attributes at a coarse sample.
-pub(super) fn sample_attributes(ctx: &UnitContext, s: Vec2) -> LaneAttributes {
-    let (px, py) = sample_fixed(s);
-    ctx.attributes_at(px, py)
+/// Interpolated attributes at a block's four coarse samples, four at a time.
+pub(super) fn corner_attributes(ctx: &UnitContext, samples: [Vec2; 4]) -> [LaneAttributes; 4] {
+    ctx.attributes_at_four(samples.map(sample_fixed)).lanes()
 }
 
 /// Where a block's four shading points (in corner order: x, then y) sample the surface

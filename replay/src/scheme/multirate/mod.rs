@@ -30,7 +30,7 @@ use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
 use crate::shader::{compose, compose_quad, Effects, LightTerm, LightingInputs, QuadLighting, Surface, SurfacePoint};
-use block::{corner_surfaces, sample_attributes, CoarseBlock};
+use block::{corner_attributes, corner_surfaces, CoarseBlock};
 pub use config::{
     CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
     DEFAULT_SAMPLING,
@@ -357,7 +357,7 @@ impl MultirateJob {
             );
             ctx.pixel_id(cx.min(ctx.width - 1), cy.min(ctx.height - 1))
         });
-        let corners = b.samples.map(|s| sample_attributes(ctx, s));
+        let corners = corner_attributes(ctx, b.samples);
         for (i, a) in corners.iter().enumerate() {
             positions[i] = a.position;
             normals[i] = a.normal;
