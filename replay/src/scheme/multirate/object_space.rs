@@ -182,17 +182,19 @@ pub(super) struct Cell {
 }
 
 impl Cell {
-    /// Per lane of a quad, the cell holding its parameter at its level and where in it (a
-    /// fraction of the cell), four lanes at a time.
+    /// Per lane of a quad, the cell holding its parameter at its level and the lane's
+    /// [`Self::weights`] in it, four lanes at a time.
     #[inline]
-    fn containing_quad(params: [Vec2; 4], levels: [i32; 4]) -> [(Cell, Vec2); 4] {
+    fn containing_quad(params: [Vec2; 4], levels: [i32; 4]) -> [(Cell, [f32; 4]); 4] {
         let scale = pow2_lanes(levels);
         let (x, y) = (
             f32x4::new(params.map(|p| p.x)) * scale,
             f32x4::new(params.map(|p| p.y)) * scale,
         );
         let (qx, qy) = (floor4(x), floor4(y));
-        let (fx, fy) = ((x - qx).to_array(), (y - qy).to_array());
+        let (u, v) = (x - qx, y - qy);
+        let (one_u, one_v) = (f32x4::ONE - u, f32x4::ONE - v);
+        let weights = [one_u * one_v, u * one_v, one_u * v, u * v].map(f32x4::to_array);
         // Truncated as `as i32` truncates: saturated, NaN to zero.
         let (qx, qy) = (qx.trunc_int().to_array(), qy.trunc_int().to_array());
         std::array::from_fn(|l| {
@@ -201,7 +203,7 @@ impl Cell {
                 qx: qx[l],
                 qy: qy[l],
             };
-            (cell, Vec2::new(fx[l], fy[l]))
+            (cell, weights.map(|w| w[l]))
         })
     }
 
@@ -273,12 +275,14 @@ impl MultirateJob {
         let mut levels = std::mem::take(&mut self.quad_levels);
         levels.clear();
         for quad in quads {
-            let centers: [(i64, i64); 4] =
-                std::array::from_fn(|l| pixel_center(quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1)));
-            let params = centers.map(|(px, py)| frame.param(ctx.setup.original_bary(ctx.setup.edges(px, py))));
+            // The lanes' barycentrics four at a time (each lane's bits).
+            let (px, py) = pixel_center(quad.x, quad.y);
+            let barys = ctx.setup.original_barys(ctx.setup.quad_edges(px, py));
+            let params: [Vec2; 4] =
+                std::array::from_fn(|l| frame.param(Vec3::new(barys[0][l], barys[1][l], barys[2][l])));
             // Texel shading also picks its level by the normal's variation.
-            let normals =
-                (space == CacheSpace::Texture).then(|| centers.map(|(px, py)| ctx.attributes_at(px, py).normal));
+            let normals = (space == CacheSpace::Texture)
+                .then(|| ctx.quad_attributes(quad.x, quad.y).lanes().map(|lane| lane.normal));
             levels.push([frame.level(&params, normals.as_ref(), rate); 4]);
             self.quad_params.push(params);
         }
@@ -309,7 +313,7 @@ impl MultirateJob {
             let anchor = quad.lanes.trailing_zeros().min(3) as usize;
             let containing = Cell::containing_quad(params, levels[q]);
             for l in (0..4).filter(|&l| quad.lanes & (1 << l) != 0 || l == anchor) {
-                let (cell, frac) = containing[l];
+                let (cell, weights) = containing[l];
                 let block = match self.cells.iter().rposition(|c| c.cell == cell) {
                     Some(b) => b,
                     None => {
@@ -322,10 +326,7 @@ impl MultirateJob {
                         self.blocks.len() - 1
                     }
                 };
-                sources[l] = LaneSource {
-                    block,
-                    weights: Cell::weights(frac),
-                };
+                sources[l] = LaneSource { block, weights };
             }
             for l in (0..4).filter(|&l| quad.lanes & (1 << l) == 0 && l != anchor) {
                 let block = sources[anchor].block;
@@ -435,7 +436,7 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
-        /// Each lane's cell and fraction are those of its own parameter and level, bit for
+        /// Each lane's cell and weights are those of its own parameter and level, bit for
         /// bit: fractions either side of zero, huge and tiny parameters, infinities and NaN,
         /// at levels from subnormal scales to overflowing ones.
         #[test]
@@ -452,9 +453,8 @@ mod tests {
                 let scaled = params[l] * pow2(levels[l]);
                 let q = scaled.floor();
                 let cell = Cell { level: levels[l], qx: q.x as i32, qy: q.y as i32 };
-                let bits = |v: Vec2| v.to_array().map(f32::to_bits);
                 prop_assert_eq!(got[l].0, cell);
-                prop_assert_eq!(bits(got[l].1), bits(scaled - q));
+                prop_assert_eq!(got[l].1.map(f32::to_bits), Cell::weights(scaled - q).map(f32::to_bits));
             }
         }
     }
