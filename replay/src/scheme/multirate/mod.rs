@@ -381,16 +381,40 @@ impl MultirateJob {
                 return;
             }
         }
-        let n = self.lights;
-        let material = ctx.triangle.material;
-        // The corners' arithmetic four at a time where the scene allows it
-        // ([`ShaderEnv::quad_lighting`]); each corner's reads and blocks stay its own, in
-        // corner order.
-        let (p, nrm) = (Vec3x4::from_lanes(&positions), Vec3x4::from_lanes(&normals));
+        let corners = (&positions, &normals, &surfaces);
+        b.first_lane = self.shade_corners(ctx, [true; 4], pixels, corners, &mut b.terms, log)[0];
+        b.refine = if exact {
+            Effects::empty()
+        } else {
+            self.predicates(ctx, b, &positions, &normals)
+        };
+        if let Some(keys) = &keys {
+            self.store_in_cache(ctx, b, keys, &positions, &normals);
+        }
+    }
+
+    /// Runs the coarse shader (every effect) at a block's `shaded` corners, in corner order,
+    /// each on a new coarse lane of its pixel, writing its light terms (a light's term of
+    /// corner `i` at `i * lights + k`); returns the corners' lanes (0 for the others). The
+    /// corners' arithmetic runs four at a time where the scene allows it
+    /// ([`ShaderEnv::quad_lighting`]); each corner's reads and blocks stay its own.
+    #[inline(always)]
+    fn shade_corners(
+        &mut self,
+        ctx: &UnitContext,
+        shaded: [bool; 4],
+        pixels: [u32; 4],
+        (positions, normals, surfaces): (&[Vec3; 4], &[Vec3; 4], &[SurfacePoint; 4]),
+        terms: &mut [LightTerm],
+        log: &mut AccessLog,
+    ) -> [usize; 4] {
+        let (n, material) = (self.lights, ctx.triangle.material);
+        let (p, nrm) = (Vec3x4::from_lanes(positions), Vec3x4::from_lanes(normals));
         let four_wide = ctx.env.quad_lighting(material, ctx.eye, p, nrm, &mut self.quad);
-        for i in 0..4 {
-            let terms = &mut b.terms[i * n..(i + 1) * n];
-            let lane = match four_wide {
+        let mut lanes = [0; 4];
+        for i in (0..4).filter(|&i| shaded[i]) {
+            let terms = &mut terms[i * n..(i + 1) * n];
+            lanes[i] = match four_wide {
                 true => {
                     let lane = self.coarse_lane(pixels[i], false);
                     let blocks = &mut self.coarse_lanes[lane].blocks;
@@ -402,18 +426,8 @@ impl MultirateJob {
                     self.shade_coarse_fragment(ctx, pixels[i], (positions[i], normals[i], surfaces[i]), terms, log)
                 }
             };
-            if i == 0 {
-                b.first_lane = lane;
-            }
         }
-        b.refine = if exact {
-            Effects::empty()
-        } else {
-            self.predicates(ctx, b, &positions, &normals)
-        };
-        if let Some(keys) = &keys {
-            self.store_in_cache(ctx, b, keys, &positions, &normals);
-        }
+        lanes
     }
 
     /// Runs the coarse shader (every effect) at one point on a new coarse lane of `pixel`,

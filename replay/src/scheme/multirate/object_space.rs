@@ -396,20 +396,21 @@ impl MultirateJob {
                     corner_surfaces(&barys.map(|b| ctx.interpolate(b)), tangents)
                 }
             };
+            let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
+            let g = ctx.geometry;
             for i in (0..4).filter(|&i| missing[i]) {
                 let bary = barys[i];
-                let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);
-                let g = ctx.geometry;
                 positions[i] = g.positions[a] * bary.x + g.positions[c] * bary.y + g.positions[d] * bary.z;
                 normals[i] =
                     (g.normals[a] * bary.x + g.normals[c] * bary.y + g.normals[d] * bary.z).normalize_or(Vec3::Y);
-                self.shade_coarse_fragment(
-                    ctx,
-                    pixel,
-                    (positions[i], normals[i], surfaces[i]),
-                    &mut b.terms[i * n..(i + 1) * n],
-                    log,
-                );
+            }
+            // Shading reads nothing the cache holds, so the corners are shaded before they are
+            // stored.
+            if missing.contains(&true) {
+                let corners = (&positions, &normals, &surfaces);
+                self.shade_corners(ctx, missing, [pixel; 4], corners, &mut b.terms, log);
+            }
+            for i in (0..4).filter(|&i| missing[i]) {
                 cache.put(
                     cell.key(i, frame.surface),
                     CacheEntry {
