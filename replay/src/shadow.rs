@@ -127,7 +127,7 @@ impl ShadowMap {
             size,
             view_projection,
             blocks: size.div_ceil(BLOCK),
-            footprint_ranges: footprint_ranges(&block_ranges(&depth, size), size.div_ceil(BLOCK) as usize),
+            footprint_ranges: footprint_ranges(&depth, size),
             depth,
             base_line,
             texel_depth: 1.0 / size as f32,
@@ -467,12 +467,15 @@ fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
 /// missing neighbour is left out (no footprint spans it).
 type FootprintRanges = [(f32, f32); 4];
 
-/// [`FootprintRanges`] of every block from the blocks' own ranges (`blocks` per row). Min
+/// [`FootprintRanges`] of every block of a `size`² map, from the blocks' own ranges. Min
 /// and max are exact in any order, and a block holding a NaN (the whole range) keeps every
 /// span that holds it undecided.
-fn footprint_ranges(block: &[(f32, f32)], blocks: usize) -> Vec<FootprintRanges> {
+fn footprint_ranges(depth: &[f32], size: u32) -> Vec<FootprintRanges> {
+    let block = block_ranges(depth, size);
+    let blocks = size.div_ceil(BLOCK) as usize;
     let union = |(lo, hi): (f32, f32), (lo2, hi2): (f32, f32)| (lo.min(lo2), hi.max(hi2));
     (0..block.len())
+        .into_par_iter()
         .map(|i| {
             let (bx, by) = (i % blocks, i / blocks);
             let at = |right: usize, below: usize| {
@@ -580,7 +583,7 @@ mod tests {
             size,
             view_projection: Mat4::IDENTITY,
             blocks: size.div_ceil(BLOCK),
-            footprint_ranges: footprint_ranges(&block_ranges(&depth, size), size.div_ceil(BLOCK) as usize),
+            footprint_ranges: footprint_ranges(&depth, size),
             depth,
             base_line: 0,
             texel_depth: 1.0 / size as f32,
