@@ -103,15 +103,22 @@ pub struct AccessLog {
     entries: [Vec<u32>; STREAMS],
     last: [u32; STREAMS],
     segments: Vec<Segment>,
-    /// The mask of [`Self::texture_mru`]'s slots, when the log knows the texture cache and
-    /// its sets are a power of two (as for every size a power of two in KiB): texture
+    /// The mask of [`Self::texture_recent`]'s slots, when the log knows the texture cache
+    /// and its sets are a power of two (as for every size a power of two in KiB): texture
     /// reads it can tell are hits are then counted ([`AccessLog::touch`]) instead of logged.
     texture_slot_mask: Option<u32>,
-    /// Per slot (a texture cache set, or at most [`MRU_SLOTS`] sets sharing one), the line
-    /// this command read or wrote there last, under the command's segment number
-    /// (`number << 32 | line`: an earlier command's is stale). Sets sharing a slot only
-    /// displace each other's line, which then is logged, not counted: still exact.
-    texture_mru: Vec<u64>,
+    /// Per slot (a texture cache set, or at most [`MRU_SLOTS`] sets sharing one), the two
+    /// lines this command read or wrote there last, the most recent first, each under the
+    /// command's segment number (`number << 32 | line`: an earlier command's is stale).
+    /// Sets sharing a slot only displace each other's lines, which then are logged, not
+    /// counted: still exact.
+    texture_recent: Vec<[u64; 2]>,
+    /// Whether the texture cache's sets hold two ways or more: a read of a slot's line
+    /// before its most recent is then a hit too ([`AccessLog::touch`]).
+    texture_second_hits: bool,
+    /// One bit per slot: the slot's two recent lines were last read in the other order
+    /// than the replay has them, by hits counted, not logged ([`AccessLog::touch`]).
+    texture_reordered: [u64; MRU_SLOTS as usize / 64],
     /// Texture reads counted as hits, in all.
     texture_hits: u64,
     /// The texture cache's ways (0 where the log does not know the cache).
@@ -180,7 +187,9 @@ impl AccessLog {
                 texture_hits: 0,
             }],
             texture_slot_mask: None,
-            texture_mru: Vec::new(),
+            texture_recent: Vec::new(),
+            texture_second_hits: false,
+            texture_reordered: [0; MRU_SLOTS as usize / 64],
             texture_hits: 0,
             texture_ways: 0,
             last_footprint: None,
@@ -191,7 +200,9 @@ impl AccessLog {
     /// its set are counted hits, not entries. The log is replayed a command at a time, so
     /// within a command that line is still its set's most recent, and reading it changes
     /// no state: the counts are those of logging it. (Most of a pixel's texels are its
-    /// neighbour's.)
+    /// neighbour's.) With two ways or more, so are reads of the line before it in its set,
+    /// which only swap the two: the order is logged before the set's next logged access.
+    /// (A shadow footprint over two block rows alternates between two lines of a set.)
     pub fn with_texture_cache(bytes: u64) -> Self {
         let mut log = AccessLog::new();
         log.reset(bytes);
@@ -204,20 +215,24 @@ impl AccessLog {
         let shape = SetShape::of(texture_cache_bytes);
         self.texture_ways = shape.ways;
         self.texture_slot_mask = shape.set_mask.map(|mask| mask.min(MRU_SLOTS - 1) as u32);
+        self.texture_second_hits = shape.ways >= 2;
         let slots = self.texture_slot_mask.map_or(0, |mask| mask as usize + 1);
-        self.texture_mru.resize(slots, 0);
+        self.texture_recent.resize(slots, [0; 2]);
         self.clear();
     }
 
     /// Moves the accesses out into a log of exactly their size, leaving this one empty with
     /// its buffers ([`Self::reset`]): what a job hands to the memory replay.
     pub fn take(&mut self) -> AccessLog {
+        self.settle_texture_order();
         let taken = AccessLog {
             entries: self.entries.each_ref().map(|entries| entries.as_slice().to_vec()),
             last: self.last,
             segments: self.segments.clone(),
             texture_slot_mask: self.texture_slot_mask,
-            texture_mru: Vec::new(),
+            texture_recent: Vec::new(),
+            texture_second_hits: self.texture_second_hits,
+            texture_reordered: [0; MRU_SLOTS as usize / 64],
             texture_hits: self.texture_hits,
             texture_ways: self.texture_ways,
             last_footprint: None,
@@ -229,6 +244,7 @@ impl AccessLog {
     /// Starts the accesses of command `command` (an index its job knows it by). A previous
     /// segment without accesses is dropped, as if it had never begun.
     pub fn begin(&mut self, command: usize) {
+        self.settle_texture_order();
         match self.segments.last_mut() {
             Some(last) if last.is_at(&self.entries, self.texture_hits) => last.command = command,
             _ => self.segments.push(Segment {
@@ -244,7 +260,7 @@ impl AccessLog {
     /// Records an access; a repeat of the stream's previous access within the command is
     /// dropped (it is a hit that cannot change any LRU state), unless it upgrades a read to
     /// a write.
-    #[inline]
+    #[inline(always)]
     pub fn touch(&mut self, stream: Stream, line: u64, write: bool) {
         debug_assert!(
             line < u64::from(REPEAT_BASE),
@@ -260,14 +276,55 @@ impl AccessLog {
         if let (Stream::Texture, Some(mask)) = (stream, self.texture_slot_mask) {
             // Under the segment number, which entries of earlier commands never match.
             let stamped = (self.segments.len() as u64) << 32 | u64::from(line as u32);
-            let mru = &mut self.texture_mru[(line as u32 & mask) as usize];
-            if !write && *mru == stamped {
+            let slot = (line as u32 & mask) as usize;
+            let [recent, before] = self.texture_recent[slot];
+            if !write && recent == stamped {
                 self.texture_hits += 1;
                 return;
             }
-            *mru = stamped;
+            // The slot's line before (both this command's) is held with two ways or more:
+            // the second most recent line of the set, whose read only swaps the two (or,
+            // where sets share the slot, the most recent of another set, whose read changes
+            // nothing). A hit: the replay is told the order before the slot's next logged
+            // access ([`Self::settle_slot_order`]).
+            if !write && before == stamped && self.texture_second_hits {
+                self.texture_recent[slot] = [before, recent];
+                self.texture_reordered[slot / 64] ^= 1 << (slot % 64);
+                self.texture_hits += 1;
+                // The last footprint's lines are no longer in the order it left them.
+                self.last_footprint = None;
+                return;
+            }
+            self.settle_slot_order(slot);
+            self.texture_recent[slot] = [stamped, recent];
         }
         self.entries[s].push(entry);
+    }
+
+    /// Where the replay would have a slot's two recent lines in the other order, logs a
+    /// read of the more recent (instead of counting the read that made it so: the
+    /// set's other accesses since were counted hits of these two lines, so the set ends in
+    /// the same state).
+    #[inline]
+    fn settle_slot_order(&mut self, slot: usize) {
+        let word = &mut self.texture_reordered[slot / 64];
+        if *word & 1 << (slot % 64) != 0 {
+            *word &= !(1 << (slot % 64));
+            self.texture_hits -= 1;
+            let recent = self.texture_recent[slot][0] as u32 & LINE_MASK;
+            self.entries[Stream::Texture as usize].push(recent);
+        }
+    }
+
+    /// [`Self::settle_slot_order`] of every slot, as the command ends: the replay takes each
+    /// command's accesses apart (other jobs' commands come between).
+    fn settle_texture_order(&mut self) {
+        for w in 0..self.texture_reordered.len() {
+            while self.texture_reordered[w] != 0 {
+                let bit = self.texture_reordered[w].trailing_zeros() as usize;
+                self.settle_slot_order(w * 64 + bit);
+            }
+        }
     }
 
     /// Reads `a`, then `b`, `times` times over (`a b a b ...`): a filter footprint's rows
@@ -366,13 +423,18 @@ impl AccessLog {
         };
         let (a, b) = (a as u32, b as u32);
         let stamp = (self.segments.len() as u64) << 32;
-        let recent = |line: u32| self.texture_mru[(line & mask) as usize] == stamp | u64::from(line);
+        let recent = |line: u32| self.texture_recent[(line & mask) as usize][0] == stamp | u64::from(line);
         a != b && a & mask != b & mask && recent(a) && recent(b)
     }
 
     /// The segments that made accesses: (segment index, command index), in order. Only the
-    /// last can be empty ([`Self::begin`] reuses an empty one).
+    /// last can be empty ([`Self::begin`] reuses an empty one). The replay reads a log
+    /// handed on by [`Self::take`], whose sets' orders are settled.
     pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        debug_assert!(
+            self.texture_reordered.iter().all(|&w| w == 0),
+            "a log read with reads out of order not logged"
+        );
         let open_empty = self
             .segments
             .last()
@@ -435,7 +497,8 @@ impl AccessLog {
             texture_hits: 0,
         };
         // Stamps carry the segment number, which starts again at 1: none may survive.
-        self.texture_mru.fill(0);
+        self.texture_recent.fill([0; 2]);
+        self.texture_reordered.fill(0);
         self.texture_hits = 0;
         self.last_footprint = None;
     }
@@ -1147,8 +1210,8 @@ mod tests {
     /// it counts none but repeated footprints; more sets than the log's table has slots;
     /// fewer lines than a footprint has), with another job's commands replayed between a
     /// log's (a line read in its previous command is not assumed still there), with writes,
-    /// counted repeats, footprints' lines (all or some of their runs) read again, and a log
-    /// cleared and reused.
+    /// counted repeats, footprints' lines (all or some of their runs) read again, a set's
+    /// lines read again out of their order, and a log cleared and reused.
     #[test]
     fn texture_hits_the_log_counts_replay_as_the_reads_logged() {
         // (cache lines, lines touched)
@@ -1227,27 +1290,31 @@ mod tests {
                         plain.read_runs(footprint);
                     }
                 }
+                // Handed on as a job hands its log to the replay.
+                let taken = knowing.each_mut().map(AccessLog::take);
                 let length = |logs: &[AccessLog; 2]| logs.iter().map(AccessLog::len).sum::<usize>();
                 // One set's most recent line is the stream's previous access, which every
                 // log drops.
                 if SetShape::of(bytes).sets > 1 {
-                    assert!(length(&knowing) < length(&plain), "{lines} lines: no hit was counted");
+                    assert!(length(&taken) < length(&plain), "{lines} lines: no hit was counted");
                 }
                 let sizes = CacheSizes {
                     texture: bytes,
                     ..tiny_caches(0)
                 };
-                // The jobs' commands interleaved, as the issue order puts them.
+                // The jobs' commands interleaved, as the issue order puts them, and all of
+                // them twice over: every command's last state then meets later accesses.
                 let replay = |logs: &[AccessLog; 2], threads| {
-                    let segments: Vec<LogSegment> =
-                        (0..commands).flat_map(|i| [(&logs[0], i), (&logs[1], i)]).collect();
+                    let segments: Vec<LogSegment> = (0..2 * commands)
+                        .flat_map(|i| [(&logs[0], i % commands), (&logs[1], i % commands)])
+                        .collect();
                     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
                     pool.install(|| simulate(sizes, &segments, threads))
                 };
                 let expected = replay(&plain, 1);
                 for threads in [1, 2, 4, 8] {
                     assert_eq!(
-                        replay(&knowing, threads),
+                        replay(&taken, threads),
                         expected,
                         "{lines} lines, round {round}, {threads} threads"
                     );
@@ -1256,6 +1323,49 @@ mod tests {
                 knowing.iter_mut().chain(&mut plain).for_each(AccessLog::clear);
             }
             assert_ne!(replays[0], replays[1]);
+        }
+    }
+
+    /// A set's lines read out of the order the log last logged them (counted hits) are
+    /// logged in their order before another command's accesses replay: whether its next
+    /// miss evicts the one or the other depends on it. Here the set is the cache's one of
+    /// two ways: X Y X leaves Y least recent, so another job's Z evicts Y and X hits.
+    #[test]
+    fn a_commands_last_order_of_a_set_is_what_replays_next() {
+        let bytes = 2 * LINE_BYTES;
+        let (x, y, z) = (1, 2, 3);
+        let sizes = CacheSizes {
+            texture: bytes,
+            ..tiny_caches(0)
+        };
+        // Both ends of a command: the next command of the job, or the job's log handed on.
+        for ended_by_begin in [true, false] {
+            let mut counting = AccessLog::with_texture_cache(bytes);
+            let mut plain = AccessLog::new();
+            for log in [&mut counting, &mut plain] {
+                log.begin(0);
+                for line in [x, y, x] {
+                    log.touch(Stream::Texture, line, false);
+                }
+            }
+            assert_eq!(counting.texture_hits, 1, "the second read of X was not counted");
+            if ended_by_begin {
+                for log in [&mut counting, &mut plain] {
+                    log.begin(1);
+                    log.touch(Stream::Depth, 0, false);
+                }
+            }
+            let counting = counting.take();
+            let mut other = AccessLog::new();
+            other.touch(Stream::Texture, z, false);
+            other.touch(Stream::Texture, x, false);
+            let replay = |log: &AccessLog| {
+                let segments: Vec<LogSegment> = log.segments().map(|(i, _)| (log, i)).chain([(&other, 0)]).collect();
+                simulate(sizes, &segments, 1).caches.texture
+            };
+            let expected = replay(&plain);
+            assert_eq!(expected.misses, 3, "X, Y, then Z: X stays");
+            assert_eq!(replay(&counting), expected, "ended by begin: {ended_by_begin}");
         }
     }
 
@@ -1299,6 +1409,7 @@ mod tests {
             reused.reset(bytes);
             fill(&mut reused, seed, commands);
             let taken = reused.take();
+            let fresh = fresh.take();
             assert!(contents(&fresh).iter().any(|(_, _, hits, _)| *hits > 0));
             assert_eq!(contents(&taken), contents(&fresh), "seed {seed}");
             assert!(reused.is_empty());
