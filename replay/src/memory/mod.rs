@@ -336,24 +336,24 @@ impl AccessLog {
         }
         self.touch(stream, a, false);
         self.touch(stream, b, false);
+        let mut rest = times - 1;
         let s = stream as usize;
+        if rest > 0 && self.counts_pair(stream, a, b) {
+            // What the reads below would do: each one a counted hit, `b` the last access.
+            self.texture_hits += 2 * u64::from(rest);
+            self.last[s] = b as u32 & LINE_MASK;
+            return;
+        }
         let entries = &self.entries[s];
         let start = self.segments.last().map_or(0, |segment| segment.start[s]);
         let n = entries.len();
         // The repeat stands for the two entries before it, which must be this pair, logged
         // in this command (a dropped repeat, a write, or `a == b` leaves others there).
         let logged = n >= start + 2 && entries[n - 2..] == [a as u32, b as u32];
-        let mut rest = times - 1;
         while logged && rest > 0 {
             let step = rest.min(REPEAT_MAX);
             self.entries[s].push(REPEAT_BASE + step - 1);
             rest -= step;
-        }
-        if rest > 0 && self.counts_pair(stream, a, b) {
-            // What the reads below would do: each one a counted hit, `b` the last access.
-            self.texture_hits += 2 * u64::from(rest);
-            self.last[s] = b as u32 & LINE_MASK;
-            return;
         }
         for _ in 0..rest {
             self.touch(stream, a, false);
@@ -415,16 +415,16 @@ impl AccessLog {
         self.last_footprint = Some((footprint, self.entries[s].len()));
     }
 
-    /// Whether reading `a` and then `b` now counts both as hits: texture lines, distinct, in
-    /// different slots of the table, each its slot's most recent line in this command.
+    /// Whether reading `a` and then `b` again, right after touching them, counts both as
+    /// hits: texture lines, distinct, in different slots of the table (so in different
+    /// sets). A line just touched is its slot's most recent in this command (logged, a hit
+    /// on it, or a swap that made it so), and the other's touch left it so.
     fn counts_pair(&self, stream: Stream, a: u64, b: u64) -> bool {
         let (Stream::Texture, Some(mask)) = (stream, self.texture_slot_mask) else {
             return false;
         };
         let (a, b) = (a as u32, b as u32);
-        let stamp = (self.segments.len() as u64) << 32;
-        let recent = |line: u32| self.texture_recent[(line & mask) as usize][0] == stamp | u64::from(line);
-        a != b && a & mask != b & mask && recent(a) && recent(b)
+        a != b && (a ^ b) & mask != 0
     }
 
     /// The segments that made accesses: (segment index, command index), in order. Only the
