@@ -134,13 +134,11 @@ impl MultirateJob {
             [b.u_at(quad.x), b.u_at(quad.x + 1)],
             [b.v_at(quad.y), b.v_at(quad.y + 1)],
         );
+        // The block holds the whole quad, in one coarse fragment: blocks are aligned squares
+        // of at least 4x4 pixels, fragments of at least 2x2, and quads 2x2-aligned.
+        debug_assert!(b.contains(quad.x + 1, quad.y + 1) && b.size >= 4);
+        let coarse_lane = b.first_lane + b.fragment_of(quad.x, quad.y);
         Some(std::array::from_fn(|l| {
-            let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
-            let coarse_lane = if b.contains(x, y) {
-                b.first_lane + b.fragment_of(x, y)
-            } else {
-                b.first_lane
-            };
             (block, CoarseBlock::weights(u[l & 1], v[l >> 1]), coarse_lane)
         }))
     }
