@@ -349,7 +349,7 @@ impl EarlyDepthTest<'_> {
                 depths[s] = setup.depths(setup.quad_edges(sx, sy));
             }
         }
-        let buffer = &mut *self.buffer;
+        let mut targets = self.buffer.depth_targets();
         let mut passed = 0u32;
         for lane in 0..4u32 {
             let lane_bits = q.coverage >> (lane as usize * samples) & ((1 << samples) - 1);
@@ -363,11 +363,11 @@ impl EarlyDepthTest<'_> {
                     continue;
                 }
                 let z = depths[lane as usize];
-                let i = buffer.index(x, y, s);
-                if passes(z, setup.prim, buffer.depth[i], buffer.prim[i]) {
+                let i = targets.index(x, y, s);
+                if passes(z, setup.prim, targets.depth[i], targets.prim[i]) {
                     passed |= 1 << (lane as usize * samples + s);
                     if self.writes_depth {
-                        buffer.write_depth(i, z, setup.prim, self.unit.tri);
+                        targets.write(i, z, setup.prim, self.unit.tri);
                         wrote = true;
                     }
                 }

@@ -32,6 +32,39 @@ pub struct SampleBuffer {
     pub max_depth: f32,
 }
 
+/// A buffer's depth, primitive and setup ids as slices, with its shape: a loop that tests
+/// and writes them through these does not reload the buffer's fields after every write, as
+/// it must through the buffer (a store could change them, as far as the compiler knows).
+pub struct DepthTargets<'a> {
+    rect: Rect,
+    samples: usize,
+    pub depth: &'a mut [f32],
+    pub prim: &'a mut [u32],
+    tri: &'a mut [u32],
+}
+
+impl DepthTargets<'_> {
+    /// [`SampleBuffer::index`].
+    #[inline]
+    pub fn index(&self, x: u32, y: u32, s: usize) -> usize {
+        sample_index(self.rect, self.samples, x, y, s)
+    }
+
+    /// [`SampleBuffer::write_depth`].
+    #[inline]
+    pub fn write(&mut self, i: usize, z: f32, prim: u32, tri: u32) {
+        self.depth[i] = z;
+        self.prim[i] = prim;
+        self.tri[i] = tri;
+    }
+}
+
+/// Index of sample `s` of pixel (x, y) of `rect`, row-major, `samples` per pixel.
+#[inline]
+fn sample_index(rect: Rect, samples: usize, x: u32, y: u32, s: usize) -> usize {
+    (((y - rect.y0) * (rect.x1 - rect.x0) + (x - rect.x0)) as usize) * samples + s
+}
+
 impl SampleBuffer {
     pub fn new(view: u8, rect: Rect, samples: usize) -> SampleBuffer {
         let n = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as usize * samples;
@@ -60,15 +93,25 @@ impl SampleBuffer {
     /// Index of sample `s` of pixel (x, y), in the rectangle's row-major order.
     #[inline]
     pub fn index(&self, x: u32, y: u32, s: usize) -> usize {
-        (((y - self.rect.y0) * (self.rect.x1 - self.rect.x0) + (x - self.rect.x0)) as usize) * self.samples + s
+        sample_index(self.rect, self.samples, x, y, s)
     }
 
     /// Records the visible surface of a sample.
     #[inline]
     pub fn write_depth(&mut self, i: usize, z: f32, prim: u32, tri: u32) {
-        self.depth[i] = z;
-        self.prim[i] = prim;
-        self.tri[i] = tri;
+        self.depth_targets().write(i, z, prim, tri);
+    }
+
+    /// The depth test's targets, borrowed apart from the buffer.
+    #[inline]
+    pub fn depth_targets(&mut self) -> DepthTargets<'_> {
+        DepthTargets {
+            rect: self.rect,
+            samples: self.samples,
+            depth: &mut self.depth,
+            prim: &mut self.prim,
+            tri: &mut self.tri,
+        }
     }
 
     /// Whether any surface covers a sample of the pixel whose samples start at `first`.
