@@ -2,12 +2,22 @@
 //! grouping a unit's quads into blocks, where each fine lane reads its coarse terms, and the
 //! placement of a block's coarse samples.
 
+use std::ops::{Mul, Sub};
+
 use glam::{Vec2, Vec4};
 
 use super::MultirateJob;
 use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
 use crate::shader::{Effects, LightTerm, SurfacePoint};
 use crate::vertex_stage::SUBPIXEL;
+
+/// The bilinear weights of four corners (in corner order: x, then y) at fraction `u` along
+/// x and `v` along y: of a pixel centre between a block's samples, of a parameter in its
+/// lattice cell; for one point, or four lanes at once (each lane's bits, `one` being 1).
+#[inline(always)]
+pub(super) fn bilinear_weights<T: Copy + Sub<Output = T> + Mul<Output = T>>(u: T, v: T, one: T) -> [T; 4] {
+    [(one - u) * (one - v), u * (one - v), (one - u) * v, u * v]
+}
 
 /// One block of four coarse fragments.
 pub(super) struct CoarseBlock {
@@ -60,11 +70,6 @@ impl CoarseBlock {
             true => (y as f32 + 0.5 - s[0].y) / (s[2].y - s[0].y),
             false => 0.0,
         }
-    }
-
-    /// The bilinear weights of the four samples at a pixel centre, from its `u_at` and `v_at`.
-    fn weights(u: f32, v: f32) -> [f32; 4] {
-        [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
     }
 
     /// The coarse fragment (0..4) a pixel of the block belongs to (screen blocks, whose
@@ -139,7 +144,7 @@ impl MultirateJob {
         debug_assert!(b.contains(quad.x + 1, quad.y + 1) && b.size >= 4);
         let coarse_lane = b.first_lane + b.fragment_of(quad.x, quad.y);
         Some(std::array::from_fn(|l| {
-            (block, CoarseBlock::weights(u[l & 1], v[l >> 1]), coarse_lane)
+            (block, bilinear_weights(u[l & 1], v[l >> 1], 1.0), coarse_lane)
         }))
     }
 }

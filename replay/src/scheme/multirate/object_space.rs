@@ -20,7 +20,7 @@ use glam::{Mat2, Vec2, Vec3, Vec4};
 use wide::bytemuck::cast;
 use wide::{f32x4, i32x4};
 
-use super::block::{corner_surfaces, CoarseBlock};
+use super::block::{bilinear_weights, corner_surfaces, CoarseBlock};
 use super::config::{CacheSpace, CoarseMode};
 use super::MultirateJob;
 use crate::cost_table::Block;
@@ -39,7 +39,7 @@ const MAX_LEVEL: i32 = 24;
 /// a cell (Hillesland & Yang select the level by normal variation too).
 const TEXEL_NORMAL_CHANGE: f32 = 0.1;
 
-/// Lattice corners of a cell, in the order of [`CoarseBlock::weights`]' bilinear weights.
+/// Lattice corners of a cell, in the order of [`bilinear_weights`].
 const CORNERS: [(i32, i32); 4] = [(0, 0), (1, 0), (0, 1), (1, 1)];
 
 /// How the triangle being drawn maps onto its surface's parameter domain.
@@ -192,9 +192,7 @@ impl Cell {
             f32x4::new(params.map(|p| p.y)) * scale,
         );
         let (qx, qy) = (floor4(x), floor4(y));
-        let (u, v) = (x - qx, y - qy);
-        let (one_u, one_v) = (f32x4::ONE - u, f32x4::ONE - v);
-        let weights = [one_u * one_v, u * one_v, one_u * v, u * v].map(f32x4::to_array);
+        let weights = bilinear_weights(x - qx, y - qy, f32x4::ONE).map(f32x4::to_array);
         // Truncated as `as i32` truncates: saturated, NaN to zero.
         let (qx, qy) = (qx.trunc_int().to_array(), qy.trunc_int().to_array());
         std::array::from_fn(|l| {
@@ -209,8 +207,7 @@ impl Cell {
 
     /// Bilinear weights of a point at `frac` (fraction of the cell) between the corners.
     fn weights(frac: Vec2) -> [f32; 4] {
-        let (u, v) = (frac.x, frac.y);
-        [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v]
+        bilinear_weights(frac.x, frac.y, 1.0)
     }
 
     /// Weights of `param` against this cell (extrapolated when it lies outside).
