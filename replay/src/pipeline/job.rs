@@ -358,11 +358,15 @@ impl EarlyDepthTest<'_> {
             }
             let (x, y) = (q.x + (lane & 1), q.y + (lane >> 1));
             let mut wrote = false;
-            for (s, depths) in depths[..samples].iter().enumerate() {
-                if lane_bits & (1 << s) == 0 {
+            // A range, not the depths' slice: at one sample the loop is one step, and no
+            // loop is compiled (through the slice's iterator a lane kept its bookkeeping).
+            #[allow(clippy::needless_range_loop)]
+            for s in 0..samples {
+                // One sample is covered where the lane is.
+                if samples > 1 && lane_bits & (1 << s) == 0 {
                     continue;
                 }
-                let z = depths[lane as usize];
+                let z = depths[s][lane as usize];
                 let i = targets.index(x, y, s);
                 if passes(z, setup.prim, targets.depth[i], targets.prim[i]) {
                     passed |= 1 << (lane as usize * samples + s);
