@@ -141,11 +141,22 @@ pub const COARSE: &str = "coarse";
 struct FineLane {
     blocks: BlockSet,
     useful: bool,
+    /// Its heat-map id; `u32::MAX` in a frame without a heat map, where nothing reads it.
     pixel: u32,
     /// Refinement bits of its block (the sort key of `TwoPhaseSorted`).
     key: u8,
     /// The coarse lane (fragment) this pixel belongs to (single-thread scheduling).
     coarse_lane: usize,
+}
+
+/// A fine lane's [`FineLane::pixel`]: `pixel()` where the frame keeps a heat map, which
+/// alone reads it (the id costs a lane a bounds test and a multiply).
+#[inline(always)]
+fn heat_pixel(acc: &Accounting, pixel: impl FnOnce() -> u32) -> u32 {
+    match acc.heat.is_kept() {
+        true => pixel(),
+        false => u32::MAX,
+    }
 }
 
 /// A coarse lane's blocks and the pixel its cost is drawn at in the heat map.
@@ -562,6 +573,7 @@ impl MultirateJob {
                 (acc.refinement)(pixel, key);
             }
             let lane = &mut self.fine_lanes[f];
+            let pixel = heat_pixel(acc, || pixel);
             (lane.useful, lane.pixel, lane.key, lane.coarse_lane) = (useful, pixel, key, coarse_lane);
         }
         out
@@ -590,7 +602,8 @@ impl MultirateJob {
             *surface = ctx.env.surface(material, &at, &mut fine.blocks, acc.log);
             fine.blocks.take(Block::Compose);
             let useful = quad.lanes & (1 << l) != 0;
-            (fine.useful, fine.pixel, fine.key, fine.coarse_lane) = (useful, ctx.pixel_id(x, y), 0, sources[l].2);
+            let pixel = heat_pixel(acc, || ctx.pixel_id(x, y));
+            (fine.useful, fine.pixel, fine.key, fine.coarse_lane) = (useful, pixel, 0, sources[l].2);
         }
         // Written out lane by lane: array `map`s here were left out of line.
         let [(b0, w0, _), (b1, w1, _), (b2, w2, _), (b3, w3, _)] = *sources;
