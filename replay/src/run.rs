@@ -215,15 +215,21 @@ pub fn replay_all(
     Ok(replays.into_iter().map(|r| r.finish(trace, reference_issued)).collect())
 }
 
-/// The pixels of a refinement map per refined effect, counted in one pass over the map.
+/// The pixels of a refinement map per refined effect. One pass per effect, each a sum of 0
+/// or 1 per pixel into u32s (per chunk of fewer than 2^32 pixels) that compiles to SIMD
+/// adds: one pass of four u64 sums took about 16 instructions a pixel, on the main thread.
 fn refined_pixels(refinement: &[u8]) -> RefinedPixels {
-    let has = |r: u8, e: Effects| u64::from(r & e.bits() != 0);
-    refinement.iter().fold(RefinedPixels::default(), |n, &r| RefinedPixels {
-        diffuse: n.diffuse + has(r, Effects::DIFFUSE),
-        specular: n.specular + has(r, Effects::SPECULAR),
-        shadow: n.shadow + has(r, Effects::SHADOW),
-        any: n.any + has(r, Effects::all()),
-    })
+    let count = |e: Effects| -> u64 {
+        let has = |&r: &u8| u32::from(r & e.bits() != 0);
+        let chunks = refinement.chunks(u32::MAX as usize);
+        chunks.map(|chunk| u64::from(chunk.iter().map(has).sum::<u32>())).sum()
+    };
+    RefinedPixels {
+        diffuse: count(Effects::DIFFUSE),
+        specular: count(Effects::SPECULAR),
+        shadow: count(Effects::SHADOW),
+        any: count(Effects::all()),
+    }
 }
 
 /// One preset's replay in progress.
