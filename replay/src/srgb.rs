@@ -19,31 +19,36 @@ pub fn linear_to_srgb8(c: f32) -> u8 {
     // first float, then the few inside the bucket up to `c`.
     let (boundaries, buckets) = tables();
     // (-0.0, which the clamp keeps, is 0.0's bucket.)
-    let mut code = buckets[((c.to_bits() & !(1 << 31)) >> BUCKET_SHIFT) as usize];
-    while let Some(&b) = boundaries.get(code as usize) {
-        if b > c {
-            break;
-        }
-        code += 1;
-    }
-    code
+    let code = buckets[((c.to_bits() & !(1 << 31)) >> BUCKET_SHIFT) as usize] as usize;
+    // At most two boundaries lie inside a bucket ([`tables`] checks): both compared, with
+    // no branch on the data (a loop's exit was one a channel, and mispredicted often).
+    (code + usize::from(boundaries[code] <= c) + usize::from(boundaries[code + 1] <= c)) as u8
 }
 
 /// Floats in [0, 1] sharing their bits above this shift share a bucket: 2^16 consecutive
 /// floats, at most 0.8% apart, so few boundaries fall in one (they are 0.4% apart or more).
 const BUCKET_SHIFT: u32 = 16;
 
-/// The boundaries, and per bucket of floats the number of boundaries below its first float.
-fn tables() -> &'static ([f32; 255], Vec<u8>) {
-    static TABLES: OnceLock<([f32; 255], Vec<u8>)> = OnceLock::new();
+/// The boundaries (then two that no value reaches, so that a bucket's two compares never
+/// leave the table), and per bucket of floats the number of boundaries below its first float.
+fn tables() -> &'static ([f32; 257], Vec<u8>) {
+    static TABLES: OnceLock<([f32; 257], Vec<u8>)> = OnceLock::new();
     TABLES.get_or_init(|| {
-        let boundaries = boundaries();
-        let buckets = (0..=1.0f32.to_bits() >> BUCKET_SHIFT)
+        let codes = boundaries();
+        let buckets: Vec<u8> = (0..=1.0f32.to_bits() >> BUCKET_SHIFT)
             .map(|bucket| {
                 let first = f32::from_bits(bucket << BUCKET_SHIFT);
-                boundaries.partition_point(|&b| b <= first) as u8
+                codes.partition_point(|&b| b <= first) as u8
             })
             .collect();
+        // What `linear_to_srgb8`'s two compares rely on: from one bucket's first float to
+        // the next's, at most two boundaries.
+        assert!(
+            buckets.windows(2).all(|w| w[1] - w[0] <= 2),
+            "three sRGB boundaries in a bucket"
+        );
+        let mut boundaries = [f32::INFINITY; 257];
+        boundaries[..255].copy_from_slice(&codes);
         (boundaries, buckets)
     })
 }
@@ -93,7 +98,7 @@ mod tests {
 
     #[test]
     fn the_table_gives_the_exact_bytes_on_every_boundary() {
-        let b = &tables().0;
+        let b = &tables().0[..255];
         for (i, &x) in b.iter().enumerate() {
             let code = i as u8 + 1;
             assert_eq!(linear_to_srgb8(x), encode_exact(x), "at the boundary of {code}");
