@@ -488,6 +488,16 @@ impl ShaderEnv<'_> {
         // is unshadowed, or no footprint falls in the map; a light left out of the list adds
         // `1 * (0 + 0)`, the zero its default term adds) and its surface.
         let mut scale = [[1.0f32; 4]; QUAD_LIGHTS];
+        // The evaluated lights that read the map, in order, found once for the four lanes.
+        let mut shadowing = [0u32; QUAD_LIGHTS];
+        let mut shadowing_len = 0;
+        if self.shadow.is_some() {
+            for &k in evaluated.iter().filter(|&&k| self.lights[k as usize].shadowed) {
+                shadowing[shadowing_len] = k;
+                shadowing_len += 1;
+            }
+        }
+        let shadowing = &shadowing[..shadowing_len];
         // A material that samples no texture has the same Phong parameters and surface at
         // every lane: lane 0's, which takes their blocks.
         let maps = self.maps.of(material);
@@ -503,17 +513,17 @@ impl ShaderEnv<'_> {
             for (l, at) in points.iter().enumerate() {
                 blocks.take(Block::CoarseSetup);
                 phong_parameters[l] = self.phong_parameters(material, at, blocks, log);
-                self.lane_visibilities(quad, l, evaluated, &mut scale, log);
+                self.lane_visibilities(quad, l, shadowing, &mut scale, log);
                 surfaces[l] = self.surface(material, at, blocks, log);
             }
             (phong_parameters, surfaces)
         } else {
             blocks.take(Block::CoarseSetup);
             let phong_parameters = self.phong_parameters(material, &points[0], blocks, log);
-            self.lane_visibilities(quad, 0, evaluated, &mut scale, log);
+            self.lane_visibilities(quad, 0, shadowing, &mut scale, log);
             let surface = self.surface(material, &points[0], blocks, log);
             for l in 1..4 {
-                self.lane_visibilities(quad, l, evaluated, &mut scale, log);
+                self.lane_visibilities(quad, l, shadowing, &mut scale, log);
             }
             ([phong_parameters; 4], [surface; 4])
         };
@@ -549,20 +559,21 @@ impl ShaderEnv<'_> {
         Some(compose_quad(&surfaces, total))
     }
 
-    /// Lane `l`'s shadow visibility of each light of `evaluated`, into `scale[k][l]`, in
-    /// light order (its PCF footprints' reads).
+    /// Lane `l`'s shadow visibility of each light of `shadowing` (shadowed lights, where the
+    /// scene has a map), into `scale[k][l]`, in light order (its PCF footprints' reads).
     #[inline(always)]
     fn lane_visibilities(
         &self,
         quad: &QuadLighting,
         l: usize,
-        evaluated: &[u32],
+        shadowing: &[u32],
         scale: &mut [[f32; 4]; QUAD_LIGHTS],
         log: &mut AccessLog,
     ) {
-        for &k in evaluated {
+        let Some(map) = self.shadow else { return };
+        for &k in shadowing {
             let k = k as usize;
-            if let (true, Some(map), Some(footprint)) = (self.lights[k].shadowed, self.shadow, quad.footprints[k][l]) {
+            if let Some(footprint) = quad.footprints[k][l] {
                 scale[k][l] = map.filter(footprint, log);
             }
         }
