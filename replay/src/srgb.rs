@@ -3,7 +3,7 @@
 //! The transfer function is defined once ([`encode_exact`], `libm` so that it is the same on
 //! every platform); what runs per channel is a count of the 255 code boundaries it implies
 //! (found once by bisection) up to the value: a table gives the count at the start of the
-//! value's bucket of floats, and at most a step or two over the boundaries follows. The
+//! value's bucket of floats, and one compare with the boundary that may lie inside it. The
 //! function is monotonic, so the count gives exactly its bytes (checked on every boundary in
 //! the tests, and over every `f32` in [0, 1] by an ignored test), at a fraction of a `pow`.
 
@@ -20,19 +20,20 @@ pub fn linear_to_srgb8(c: f32) -> u8 {
     let (boundaries, buckets) = tables();
     // (-0.0, which the clamp keeps, is 0.0's bucket.)
     let code = buckets[((c.to_bits() & !(1 << 31)) >> BUCKET_SHIFT) as usize] as usize;
-    // At most two boundaries lie inside a bucket ([`tables`] checks): both compared, with
-    // no branch on the data (a loop's exit was one a channel, and mispredicted often).
-    (code + usize::from(boundaries[code] <= c) + usize::from(boundaries[code + 1] <= c)) as u8
+    // At most one boundary lies inside a bucket ([`tables`] checks): one compare, with no
+    // branch on the data (a loop's exit was one a channel, and mispredicted often).
+    (code + usize::from(boundaries[code] <= c)) as u8
 }
 
 /// Floats in [0, 1] sharing their bits above this shift share a bucket: 2^16 consecutive
-/// floats, at most 0.8% apart, so few boundaries fall in one (they are 0.4% apart or more).
+/// floats, spanning at most 0.8%, so at most one boundary falls in one (they are 0.9% apart
+/// or more; [`tables`] checks).
 const BUCKET_SHIFT: u32 = 16;
 
-/// The boundaries (then two that no value reaches, so that a bucket's two compares never
-/// leave the table), and per bucket of floats the number of boundaries below its first float.
-fn tables() -> &'static ([f32; 257], Vec<u8>) {
-    static TABLES: OnceLock<([f32; 257], Vec<u8>)> = OnceLock::new();
+/// The boundaries (then one that no value reaches, the compare at code 255), and per bucket
+/// of floats the number of boundaries below its first float.
+fn tables() -> &'static ([f32; 256], Vec<u8>) {
+    static TABLES: OnceLock<([f32; 256], Vec<u8>)> = OnceLock::new();
     TABLES.get_or_init(|| {
         let codes = boundaries();
         let buckets: Vec<u8> = (0..=1.0f32.to_bits() >> BUCKET_SHIFT)
@@ -41,13 +42,13 @@ fn tables() -> &'static ([f32; 257], Vec<u8>) {
                 codes.partition_point(|&b| b <= first) as u8
             })
             .collect();
-        // What `linear_to_srgb8`'s two compares rely on: from one bucket's first float to
-        // the next's, at most two boundaries.
+        // What `linear_to_srgb8`'s one compare relies on: from one bucket's first float to
+        // the next's, at most one boundary.
         assert!(
-            buckets.windows(2).all(|w| w[1] - w[0] <= 2),
-            "three sRGB boundaries in a bucket"
+            buckets.windows(2).all(|w| w[1] - w[0] <= 1),
+            "two sRGB boundaries in a bucket"
         );
-        let mut boundaries = [f32::INFINITY; 257];
+        let mut boundaries = [f32::INFINITY; 256];
         boundaries[..255].copy_from_slice(&codes);
         (boundaries, buckets)
     })

@@ -362,7 +362,7 @@ impl EarlyDepthTest<'_> {
             // loop is compiled (through the slice's iterator a lane kept its bookkeeping).
             #[allow(clippy::needless_range_loop)]
             for s in 0..samples {
-                // One sample is covered where the lane is.
+                // At one sample per pixel, a lane that got here has its sample covered.
                 if samples > 1 && lane_bits & (1 << s) == 0 {
                     continue;
                 }
