@@ -219,6 +219,17 @@ impl CostHeatList {
         self.0.is_some()
     }
 
+    /// A lane's heat-map id for a packer: `id()` where the list is kept, `u32::MAX` (no
+    /// pixel) where it is not and nothing reads it, without computing it (a bounds test and
+    /// a multiply a lane).
+    #[inline(always)]
+    pub fn pixel(&self, id: impl FnOnce() -> u32) -> u32 {
+        match self.is_kept() {
+            true => id(),
+            false => u32::MAX,
+        }
+    }
+
     /// Adds `n` instructions to `pixel` (wrapping, like the map's sums).
     #[inline]
     pub fn add(&mut self, pixel: u32, n: u32) {
@@ -483,5 +494,13 @@ mod tests {
         assert_eq!(kept, skipped);
         assert_eq!(heat.entries().len(), 6);
         assert!(none.entries().is_empty());
+    }
+
+    /// A kept list gets each lane's id; a dropped one gets none and never computes it.
+    #[test]
+    fn only_a_kept_list_asks_for_the_pixel() {
+        assert_eq!(CostHeatList::new(true).pixel(|| 7), 7);
+        let unread = CostHeatList::new(false).pixel(|| panic!("an id computed for no heat map"));
+        assert_eq!(unread, u32::MAX);
     }
 }

@@ -114,14 +114,10 @@ impl SchemeJob for PerPixelJob {
                 false => None,
             };
             if let Some(out) = together {
-                // Pixel ids only for a heat map: without one the packer keeps none.
-                let pixels = match acc.heat.is_kept() {
-                    true => std::array::from_fn(|l| {
-                        let (x, y) = lane_pixel(l);
-                        ctx.pixel_id(x, y)
-                    }),
-                    false => [u32::MAX; 4],
-                };
+                let pixels = std::array::from_fn(|l| {
+                    let (x, y) = lane_pixel(l);
+                    acc.heat.pixel(|| ctx.pixel_id(x, y))
+                });
                 self.packer.quad(&self.blocks, quad.lanes, pixels, fine, acc.heat);
                 colors.push(out);
                 continue;

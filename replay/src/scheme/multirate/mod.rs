@@ -149,16 +149,6 @@ struct FineLane {
     coarse_lane: usize,
 }
 
-/// A fine lane's [`FineLane::pixel`]: `pixel()` where the frame keeps a heat map, which
-/// alone reads it (the id costs a lane a bounds test and a multiply).
-#[inline(always)]
-fn heat_pixel(acc: &Accounting, pixel: impl FnOnce() -> u32) -> u32 {
-    match acc.heat.is_kept() {
-        true => pixel(),
-        false => u32::MAX,
-    }
-}
-
 /// A coarse lane's blocks and the pixel its cost is drawn at in the heat map.
 struct CoarseLane {
     blocks: BlockSet,
@@ -573,7 +563,7 @@ impl MultirateJob {
                 (acc.refinement)(pixel, key);
             }
             let lane = &mut self.fine_lanes[f];
-            let pixel = heat_pixel(acc, || pixel);
+            let pixel = acc.heat.pixel(|| pixel);
             (lane.useful, lane.pixel, lane.key, lane.coarse_lane) = (useful, pixel, key, coarse_lane);
         }
         out
@@ -602,7 +592,7 @@ impl MultirateJob {
             *surface = ctx.env.surface(material, &at, &mut fine.blocks, acc.log);
             fine.blocks.take(Block::Compose);
             let useful = quad.lanes & (1 << l) != 0;
-            let pixel = heat_pixel(acc, || ctx.pixel_id(x, y));
+            let pixel = acc.heat.pixel(|| ctx.pixel_id(x, y));
             (fine.useful, fine.pixel, fine.key, fine.coarse_lane) = (useful, pixel, 0, sources[l].2);
         }
         // Written out lane by lane: array `map`s here were left out of line.

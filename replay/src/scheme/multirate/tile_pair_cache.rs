@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::block::CoarseBlock;
+use super::block::{bilinear_weights, CoarseBlock};
 use super::MultirateJob;
 use crate::cost_table::Block;
 use crate::scheme::shading_cache::{CacheEntry, CacheKey};
@@ -127,7 +127,7 @@ impl MultirateJob {
                         qy: cv as i32 + dy,
                         ..there
                     });
-                    let weights = [(1.0 - fu) * (1.0 - fv), fu * (1.0 - fv), (1.0 - fu) * fv, fu * fv];
+                    let weights = bilinear_weights(fu, fv, 1.0);
                     let mixed = &mut scratch.mixed;
                     mixed.clear();
                     mixed.resize(n, LightTerm::default());
