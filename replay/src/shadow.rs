@@ -101,8 +101,17 @@ impl ShadowMap {
                     y1: ((band + 1) * BAND).min(size),
                 };
                 let offsets = sample_offsets(1);
-                let candidates = candidates.iter().map(|&i| &tris[i as usize]);
-                for t in candidates.filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0) {
+                // Nearest first, so that the quads behind them are rejected before their
+                // depths are computed. A texel keeps the minimum of its depths, the same in
+                // any order: NaN never wins, and of two zeros, whose sign may now differ,
+                // no comparison tells one from the other.
+                let mut near_first: Vec<&SetupTriangle> = candidates
+                    .iter()
+                    .map(|&i| &tris[i as usize])
+                    .filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0)
+                    .collect();
+                near_first.sort_by(|a, b| a.z_min.total_cmp(&b.z_min));
+                for t in near_first {
                     rasterize(t, rect, offsets, |q| {
                         let texel = |lane: u32| ((q.y + (lane >> 1) - rect.y0) * size + q.x + (lane & 1)) as usize;
                         let covered = || (0..4u32).filter(|lane| q.coverage & (1 << lane) != 0);
