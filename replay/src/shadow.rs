@@ -15,7 +15,7 @@ use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, Stream};
 use crate::raster::{rasterize, sample_offsets, Rect};
 use crate::texture::{level_lines, BLOCK};
-use crate::vertex_stage::{setup_view, SetupTriangle};
+use crate::vertex_stage::{setup_view_chunks, SetupTriangle};
 
 /// Rows of the map rasterized per parallel work item.
 const BAND: u32 = 64;
@@ -84,8 +84,8 @@ impl ShadowMap {
         let view = Mat4::look_at_rh(center - dir * radius * 2.0, center, up);
         let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
         let view_projection = proj * view;
-        let (tris, vstats) = setup_view(geometry, &vec![true; materials], view_projection, size, size);
-        let by_band = band_candidates(&tris, size);
+        let (chunks, vstats) = setup_view_chunks(geometry, &vec![true; materials], view_projection, size, size);
+        let by_band = band_candidates(chunks.iter().flatten(), size);
         // Cleared in parallel: the first touch of 16 MiB is itself worth spreading.
         let mut depth: Vec<f32> = (0..size * size).into_par_iter().map(|_| 1.0).collect();
         let texels_written: u64 = depth
@@ -105,11 +105,8 @@ impl ShadowMap {
                 // depths are computed. A texel keeps the minimum of its depths, the same in
                 // any order: NaN never wins, and of two zeros, whose sign may now differ,
                 // no comparison tells one from the other.
-                let mut near_first: Vec<&SetupTriangle> = candidates
-                    .iter()
-                    .map(|&i| &tris[i as usize])
-                    .filter(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0)
-                    .collect();
+                let mut near_first = candidates;
+                near_first.retain(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0);
                 near_first.sort_by(|a, b| a.z_min.total_cmp(&b.z_min));
                 for t in near_first {
                     rasterize(t, rect, offsets, |q| {
@@ -421,13 +418,13 @@ impl ShadowMap {
 /// Per band of the map, the triangles whose bounding boxes reach its rows, in submission
 /// order: each band then visits only those (the band's own test still decides), instead of
 /// every triangle of the scene once per band.
-fn band_candidates(tris: &[SetupTriangle], size: u32) -> Vec<Vec<u32>> {
+fn band_candidates<'a>(tris: impl Iterator<Item = &'a SetupTriangle>, size: u32) -> Vec<Vec<&'a SetupTriangle>> {
     let mut by_band = vec![Vec::new(); size.div_ceil(BAND) as usize];
-    for (i, t) in tris.iter().enumerate() {
+    for t in tris {
         let first = (t.bbox[1] / BAND) as usize;
         let last = ((t.bbox[3] / BAND) as usize).min(by_band.len().saturating_sub(1));
         for band in by_band.get_mut(first..=last).unwrap_or_default() {
-            band.push(i as u32);
+            band.push(t);
         }
     }
     by_band
@@ -623,13 +620,13 @@ mod tests {
                 let verts = c.map(|(x, y)| glam::Vec4::new(x, y, 0.5, 1.0));
                 setup_clip_triangle(i as u32, verts, true, (size, size), &mut tris, &mut stats);
             }
-            let by_band = band_candidates(&tris, size);
+            let by_band = band_candidates(tris.iter(), size);
             prop_assert_eq!(by_band.len() as u32, size.div_ceil(BAND));
             for (band, candidates) in by_band.iter().enumerate() {
                 let (y0, y1) = (band as u32 * BAND, ((band as u32 + 1) * BAND).min(size));
                 let draws = |t: &SetupTriangle| t.bbox[1] < y1 && t.bbox[3] >= y0;
-                let picked: Vec<u32> = candidates.iter().copied().filter(|&i| draws(&tris[i as usize])).collect();
-                let expected: Vec<u32> = (0..tris.len() as u32).filter(|&i| draws(&tris[i as usize])).collect();
+                let picked: Vec<u32> = candidates.iter().filter(|t| draws(t)).map(|t| t.prim).collect();
+                let expected: Vec<u32> = tris.iter().filter(|t| draws(t)).map(|t| t.prim).collect();
                 prop_assert_eq!(picked, expected, "band {}", band);
             }
         }

@@ -156,6 +156,34 @@ pub fn setup_view(
     width: u32,
     height: u32,
 ) -> (Vec<SetupTriangle>, VertexStats) {
+    let (chunks, stats) = setup_view_chunks(geometry, double_sided, view_projection, width, height);
+    // Where each chunk's triangles start in the view's list: the list is then gathered in
+    // parallel (copying ~10 MB on one thread was a serial tenth of the stage).
+    let mut starts = Vec::with_capacity(chunks.len());
+    let mut total = 0;
+    for tris in &chunks {
+        starts.push(total);
+        total += tris.len();
+    }
+    let all = (0..total)
+        .into_par_iter()
+        .map(|i| {
+            let chunk = starts.partition_point(|&start| start <= i) - 1;
+            chunks[chunk][i - starts[chunk]].clone()
+        })
+        .collect();
+    (all, stats)
+}
+
+/// [`setup_view`] as the lists of consecutive chunks of submission order, for a pass that
+/// needs no one list (the shadow map's bands): the chunks are not copied into one.
+pub fn setup_view_chunks(
+    geometry: &FrameGeometry,
+    double_sided: &[bool],
+    view_projection: Mat4,
+    width: u32,
+    height: u32,
+) -> (Vec<Vec<SetupTriangle>>, VertexStats) {
     let clip: Vec<Vec4> = geometry
         .positions
         .par_chunks(SETUP_CHUNK * 3)
@@ -184,23 +212,14 @@ pub fn setup_view(
         })
         .collect();
     let mut stats = VertexStats::default();
-    // Where each chunk's triangles start in the view's list: the list is then gathered in
-    // parallel (copying ~10 MB on one thread was a serial tenth of the stage).
-    let mut starts = Vec::with_capacity(results.len());
-    let mut total = 0;
-    for (tris, s) in &results {
-        starts.push(total);
-        total += tris.len();
-        stats.add(s);
-    }
-    let all = (0..total)
-        .into_par_iter()
-        .map(|i| {
-            let chunk = starts.partition_point(|&start| start <= i) - 1;
-            results[chunk].0[i - starts[chunk]].clone()
+    let chunks = results
+        .into_iter()
+        .map(|(tris, s)| {
+            stats.add(&s);
+            tris
         })
         .collect();
-    (all, stats)
+    (chunks, stats)
 }
 
 /// The guard band's half-extent in NDC units of a `width` x `height` view.
