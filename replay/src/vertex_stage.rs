@@ -157,22 +157,10 @@ pub fn setup_view(
     height: u32,
 ) -> (Vec<SetupTriangle>, VertexStats) {
     let (chunks, stats) = setup_view_chunks(geometry, double_sided, view_projection, width, height);
-    // Where each chunk's triangles start in the view's list: the list is then gathered in
-    // parallel (copying ~10 MB on one thread was a serial tenth of the stage).
-    let mut starts = Vec::with_capacity(chunks.len());
-    let mut total = 0;
-    for tris in &chunks {
-        starts.push(total);
-        total += tris.len();
-    }
-    let all = (0..total)
-        .into_par_iter()
-        .map(|i| {
-            let chunk = starts.partition_point(|&start| start <= i) - 1;
-            chunks[chunk][i - starts[chunk]].clone()
-        })
-        .collect();
-    (all, stats)
+    // One copy of the chunks in turn, a stream the memory system runs at full speed: a
+    // parallel gather, element by element with a search for its chunk, took 5 to 10% more
+    // of the stage at 1 and at 2 threads.
+    (chunks.concat(), stats)
 }
 
 /// [`setup_view`] as the lists of consecutive chunks of submission order, for a pass that
