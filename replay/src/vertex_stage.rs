@@ -172,15 +172,12 @@ pub fn setup_view_chunks(
     width: u32,
     height: u32,
 ) -> (Vec<Vec<SetupTriangle>>, VertexStats) {
+    // Indexed, so that each vertex is written in place (no per-chunk lists to join).
     let clip: Vec<Vec4> = geometry
         .positions
-        .par_chunks(SETUP_CHUNK * 3)
-        .flat_map_iter(|chunk| {
-            chunk
-                .iter()
-                .map(|&p| view_projection * p.extend(1.0))
-                .collect::<Vec<_>>()
-        })
+        .par_iter()
+        .with_min_len(SETUP_CHUNK * 3)
+        .map(|&p| view_projection * p.extend(1.0))
         .collect();
     let guard = guard_band(width, height);
     let results: Vec<(Vec<SetupTriangle>, VertexStats)> = geometry
