@@ -9,6 +9,7 @@
 
 mod assemble;
 mod blend;
+mod issue_order;
 mod job;
 mod resolve;
 mod sample_buffer;
@@ -37,6 +38,7 @@ use crate::shader::{ShaderEnv, ShadingLight};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
 use crate::vertex_stage::{setup_view, SetupTriangle};
+use issue_order::{issue_order, IssueKey};
 pub use job::Counters;
 pub use job::VERTEX_BYTES;
 use job::{run_job, JobContext, JobOutput};
@@ -498,9 +500,7 @@ fn memory_pass(
     view_pass: Option<&[JobOutput]>,
     threads: usize,
 ) -> Replayed {
-    // Keys are unique (they end in the job and segment), so the parallel sort's order is
-    // the one order there is.
-    let mut order: Vec<(u8, [u64; 4], usize, usize)> = outputs
+    let keys: Vec<IssueKey> = outputs
         .par_iter()
         .enumerate()
         .flat_map_iter(|(j, out)| {
@@ -515,10 +515,9 @@ fn memory_pass(
             })
         })
         .collect();
-    order.par_sort_unstable();
-    let mut ordered: Vec<LogSegment> = order
-        .iter()
-        .map(|&(_, _, j, segment)| (&outputs[j].log, segment))
+    let mut ordered: Vec<LogSegment> = issue_order(keys)
+        .into_iter()
+        .map(|(j, segment)| (&outputs[j].log, segment))
         .collect();
     if let Some(pass) = view_pass {
         ordered.extend(
