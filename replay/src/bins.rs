@@ -32,7 +32,11 @@ impl TileGrid {
     }
 
     pub fn rect(&self, tile: u32) -> Rect {
-        let (tx, ty) = (tile % self.tiles_x, tile / self.tiles_x);
+        self.rect_at(tile % self.tiles_x, tile / self.tiles_x)
+    }
+
+    /// The rectangle of the tile in column `tx` of row `ty`.
+    pub fn rect_at(&self, tx: u32, ty: u32) -> Rect {
         Rect {
             x0: tx * self.tile,
             y0: ty * self.tile,
@@ -86,7 +90,7 @@ fn bin_view(grid: TileGrid, tris: &[SetupTriangle]) -> Vec<Vec<u32>> {
                 let tx0 = t.bbox[0] / grid.tile;
                 let tx1 = t.bbox[2] / grid.tile;
                 for tx in tx0..=tx1.min(grid.tiles_x - 1) {
-                    if overlaps(t, grid.rect(ty * grid.tiles_x + tx)) {
+                    if overlaps(t, grid.rect_at(tx, ty)) {
                         row[tx as usize].push(i);
                     }
                 }
