@@ -141,6 +141,8 @@ struct Scratch {
     shade_quads: Vec<ShadeQuad>,
     colors: Vec<[Vec4; 4]>,
     log: AccessLog,
+    /// Tile buffers of finished jobs, for the next job's tiles.
+    spare_buffers: Vec<SampleBuffer>,
 }
 
 thread_local! {
@@ -163,9 +165,16 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
         match *command {
             Command::BeginSequence => scheme_job.begin_sequence(),
             Command::Draw(unit) | Command::DepthPrepass(unit) | Command::Visibility(unit) => {
-                let buffer = buffers
-                    .entry((unit.view, unit.tile))
-                    .or_insert_with(|| SampleBuffer::new(unit.view, ctx.grid.rect(unit.tile), ctx.offsets.len()));
+                let buffer = buffers.entry((unit.view, unit.tile)).or_insert_with(|| {
+                    let rect = ctx.grid.rect(unit.tile);
+                    match scratch.spare_buffers.pop() {
+                        Some(mut buffer) => {
+                            buffer.reset(unit.view, rect, ctx.offsets.len());
+                            buffer
+                        }
+                        None => SampleBuffer::new(unit.view, rect, ctx.offsets.len()),
+                    }
+                });
                 let scheme_job = scheme_job.as_mut();
                 if ctx.z_prepass && matches!(command, Command::Draw(_)) && prepared.insert((unit.view, unit.tile)) {
                     let tile_ctx = TileContext {
@@ -188,11 +197,12 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     }
     out.log = log.take();
     scratch.log = log;
-    SCRATCH.set(Some(scratch));
     out.tiles = buffers.values().map(|buffer| resolve(buffer, ctx.colors)).collect();
-    if ctx.keep_buffers {
-        out.buffers = buffers.into_values().collect();
+    match ctx.keep_buffers {
+        true => out.buffers = buffers.into_values().collect(),
+        false => scratch.spare_buffers.extend(buffers.into_values()),
     }
+    SCRATCH.set(Some(scratch));
     out
 }
 

@@ -67,18 +67,34 @@ fn sample_index(rect: Rect, samples: usize, x: u32, y: u32, s: usize) -> usize {
 
 impl SampleBuffer {
     pub fn new(view: u8, rect: Rect, samples: usize) -> SampleBuffer {
-        let n = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as usize * samples;
-        SampleBuffer {
+        let mut buffer = SampleBuffer {
             view,
             rect,
             samples,
-            depth: vec![1.0; n],
-            prim: vec![NO_PRIMITIVE; n],
-            tri: vec![NO_PRIMITIVE; n],
-            color: vec![CLEAR_COLOR; n],
-            blended: vec![false; n / samples],
+            depth: Vec::new(),
+            prim: Vec::new(),
+            tri: Vec::new(),
+            color: Vec::new(),
+            blended: Vec::new(),
             max_depth: 1.0,
+        };
+        buffer.reset(view, rect, samples);
+        buffer
+    }
+
+    /// The buffer cleared for another tile, as [`Self::new`] makes it, its allocations kept.
+    pub fn reset(&mut self, view: u8, rect: Rect, samples: usize) {
+        let n = ((rect.x1 - rect.x0) * (rect.y1 - rect.y0)) as usize * samples;
+        fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
+            v.clear();
+            v.resize(n, value);
         }
+        (self.view, self.rect, self.samples, self.max_depth) = (view, rect, samples, 1.0);
+        refill(&mut self.depth, n, 1.0);
+        refill(&mut self.prim, n, NO_PRIMITIVE);
+        refill(&mut self.tri, n, NO_PRIMITIVE);
+        refill(&mut self.color, n, CLEAR_COLOR);
+        refill(&mut self.blended, n / samples, false);
     }
 
     /// Pixels per row.
