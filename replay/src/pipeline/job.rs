@@ -141,7 +141,9 @@ struct Scratch {
     shade_quads: Vec<ShadeQuad>,
     colors: Vec<[Vec4; 4]>,
     log: AccessLog,
-    /// Tile buffers of finished jobs, for the next job's tiles.
+    /// A job's tile buffers by (view, tile), sorted (empty between jobs), and finished
+    /// jobs' buffers for the next job's tiles.
+    buffers: Vec<((u8, u32), SampleBuffer)>,
     spare_buffers: Vec<SampleBuffer>,
 }
 
@@ -153,9 +155,10 @@ thread_local! {
 
 pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOutput {
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
-    let mut buffers: BTreeMap<(u8, u32), SampleBuffer> = BTreeMap::new();
     let mut out = JobOutput::new(ctx.heat);
     let mut scratch = SCRATCH.take().unwrap_or_default();
+    // The job's tile buffers by (view, tile), in that order.
+    let mut buffers = std::mem::take(&mut scratch.buffers);
     let mut log = std::mem::take(&mut scratch.log);
     log.reset(ctx.texture_cache_bytes);
     // Tiles whose pre-passed depth the scheme has seen.
@@ -165,16 +168,23 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
         match *command {
             Command::BeginSequence => scheme_job.begin_sequence(),
             Command::Draw(unit) | Command::DepthPrepass(unit) | Command::Visibility(unit) => {
-                let buffer = buffers.entry((unit.view, unit.tile)).or_insert_with(|| {
-                    let rect = ctx.grid.rect(unit.tile);
-                    match scratch.spare_buffers.pop() {
-                        Some(mut buffer) => {
-                            buffer.reset(unit.view, rect, ctx.offsets.len());
-                            buffer
-                        }
-                        None => SampleBuffer::new(unit.view, rect, ctx.offsets.len()),
+                let key = (unit.view, unit.tile);
+                let at = match buffers.binary_search_by_key(&key, |(key, _)| *key) {
+                    Ok(at) => at,
+                    Err(at) => {
+                        let rect = ctx.grid.rect(unit.tile);
+                        let buffer = match scratch.spare_buffers.pop() {
+                            Some(mut buffer) => {
+                                buffer.reset(unit.view, rect, ctx.offsets.len());
+                                buffer
+                            }
+                            None => SampleBuffer::new(unit.view, rect, ctx.offsets.len()),
+                        };
+                        buffers.insert(at, (key, buffer));
+                        at
                     }
-                });
+                };
+                let buffer = &mut buffers[at].1;
                 let scheme_job = scheme_job.as_mut();
                 if ctx.z_prepass && matches!(command, Command::Draw(_)) && prepared.insert((unit.view, unit.tile)) {
                     let tile_ctx = TileContext {
@@ -189,19 +199,21 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
                 geometry_command(ctx, command, unit, buffer, scheme_job, &mut scratch, &mut log, &mut out);
             }
             Command::ShadeTile { view, tile } => {
-                if let Some(buffer) = buffers.get_mut(&(view, tile)) {
-                    shade_tile(ctx, tile, buffer, scheme_job.as_mut(), &mut log, &mut out);
+                if let Ok(at) = buffers.binary_search_by_key(&(view, tile), |(key, _)| *key) {
+                    shade_tile(ctx, tile, &mut buffers[at].1, scheme_job.as_mut(), &mut log, &mut out);
                 }
             }
         }
     }
     out.log = log.take();
     scratch.log = log;
-    out.tiles = buffers.values().map(|buffer| resolve(buffer, ctx.colors)).collect();
+    out.tiles = buffers.iter().map(|(_, buffer)| resolve(buffer, ctx.colors)).collect();
+    let finished = buffers.drain(..).map(|(_, buffer)| buffer);
     match ctx.keep_buffers {
-        true => out.buffers = buffers.into_values().collect(),
-        false => scratch.spare_buffers.extend(buffers.into_values()),
+        true => out.buffers = finished.collect(),
+        false => scratch.spare_buffers.extend(finished),
     }
+    scratch.buffers = buffers;
     SCRATCH.set(Some(scratch));
     out
 }
