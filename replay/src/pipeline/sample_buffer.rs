@@ -184,6 +184,45 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A buffer reset for another tile is the one `new` makes for it, whatever it held and
+    /// whether it was larger or smaller.
+    #[test]
+    fn a_reset_buffer_is_a_new_one() {
+        let small = Rect {
+            x0: 16,
+            y0: 0,
+            x1: 32,
+            y1: 16,
+        };
+        let large = Rect {
+            x0: 0,
+            y0: 32,
+            x1: 64,
+            y1: 40,
+        };
+        let mut buffer = SampleBuffer::new(1, large, 4);
+        for (view, rect, samples) in [(0, small, 1), (1, large, 8), (0, small, 4)] {
+            buffer.depth.fill(0.25);
+            buffer.prim.fill(3);
+            buffer.tri.fill(7);
+            buffer.color.fill(Vec4::ONE);
+            buffer.blended.fill(true);
+            buffer.max_depth = 0.5;
+            buffer.reset(view, rect, samples);
+            let new = SampleBuffer::new(view, rect, samples);
+            assert_eq!(
+                (buffer.view, buffer.rect, buffer.samples),
+                (new.view, new.rect, new.samples)
+            );
+            assert_eq!(
+                (&buffer.depth, &buffer.prim, &buffer.tri),
+                (&new.depth, &new.prim, &new.tri)
+            );
+            assert_eq!((&buffer.color, &buffer.blended), (&new.color, &new.blended));
+            assert_eq!(buffer.max_depth.to_bits(), new.max_depth.to_bits());
+        }
+    }
+
     proptest! {
         /// The covered pixels counted at once are those [`SampleBuffer::covered`] finds one
         /// by one, at one sample per pixel and at four.
