@@ -31,7 +31,8 @@ impl Scheduler for Multiview {
                 let spans = [0, 1].map(|v| row_spans(input, row, v));
                 let rect = grid.rect(row * grid.tiles_x);
                 for v in 0..2u8 {
-                    for &(prim, span, s) in &spans[v as usize] {
+                    for entry in &spans[v as usize] {
+                        let (prim, span, s) = (entry.prim, entry.columns, entry.setup);
                         let tile = |x: u32| row * grid.tiles_x + x;
                         let mut next = 0u32;
                         let mut rank = |view: u8, x: u32, ranks: &mut HashMap<(u8, u32, u32), u32>| {
@@ -40,8 +41,9 @@ impl Scheduler for Multiview {
                                 next
                             });
                         };
-                        match (v, span_of(&spans[1], prim)) {
-                            (0, Some((r, rs))) => {
+                        match (v, span_of(&spans[1], prim).map(|j| spans[1][j])) {
+                            (0, Some(right)) => {
+                                let (r, rs) = (right.columns, right.setup);
                                 pairs.clear();
                                 let (left, right) = (&input.setups[0][s as usize], &input.setups[1][rs as usize]);
                                 let center_y = (rect.y0 + rect.y1) / 2;

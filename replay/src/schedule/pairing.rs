@@ -19,28 +19,64 @@ use crate::vertex_stage::{SetupTriangle, SUBPIXEL};
 /// Covered tile columns `[first, last]` of one triangle on one row, in one view.
 pub type TileSpan = (u32, u32);
 
-/// On tile row `row` of view `v`: per primitive (ascending), the tile columns it covers and
-/// its first setup triangle there (a clipped primitive may have several).
-pub fn row_spans(input: &ScheduleInput, row: u32, v: usize) -> Vec<(u32, TileSpan, u32)> {
-    let tiles_x = input.bins.grid.tiles_x;
-    let mut seen: Vec<(u32, u32, u32)> = (0..tiles_x)
-        .flat_map(|x| {
-            input.bins.lists[v][(row * tiles_x + x) as usize]
-                .iter()
-                .map(move |&s| (input.setups[v][s as usize].prim, x, s))
-        })
-        .collect();
-    // Stable: a primitive's occurrences stay in column order.
-    seen.sort_by_key(|&(prim, _, _)| prim);
-    seen.chunk_by(|a, b| a.0 == b.0)
-        .map(|run| (run[0].0, (run[0].1, run[run.len() - 1].1), run[0].2))
-        .collect()
+/// One primitive's tiles on one tile row of one view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowSpan {
+    pub prim: u32,
+    pub columns: TileSpan,
+    /// Its first setup triangle in its first column (a clipped primitive may have several).
+    pub setup: u32,
+    /// Its first and last setup triangles on the row: a tile list holds its setups in
+    /// submission order, so the primitive's entries in any of the row's lists are those
+    /// between the two, found without reading a setup.
+    pub setups: (u32, u32),
 }
 
-/// The entry of primitive `prim` in [`row_spans`]' list.
-pub fn span_of(spans: &[(u32, TileSpan, u32)], prim: u32) -> Option<(TileSpan, u32)> {
-    let i = spans.binary_search_by_key(&prim, |&(p, _, _)| p).ok()?;
-    Some((spans[i].1, spans[i].2))
+/// On tile row `row` of view `v`: per primitive (ascending), its [`RowSpan`].
+///
+/// The row's entries are sorted as (setup, column) keys: setups list in primitive order, so
+/// this groups each primitive's entries, and each setup is read once, in order, for its
+/// primitive.
+pub fn row_spans(input: &ScheduleInput, row: u32, v: usize) -> Vec<RowSpan> {
+    let tiles_x = input.bins.grid.tiles_x;
+    let lists = &input.bins.lists[v][(row * tiles_x) as usize..((row + 1) * tiles_x) as usize];
+    let mut keys: Vec<u64> = (0..tiles_x)
+        .zip(lists)
+        .flat_map(|(x, list)| list.iter().map(move |&s| u64::from(s) << 32 | u64::from(x)))
+        .collect();
+    keys.sort_unstable();
+    let mut spans: Vec<RowSpan> = Vec::new();
+    let mut last_setup = None;
+    let mut prim = 0;
+    for key in keys {
+        let (s, x) = ((key >> 32) as u32, key as u32);
+        if last_setup != Some(s) {
+            last_setup = Some(s);
+            prim = input.setups[v][s as usize].prim;
+        }
+        match spans.last_mut() {
+            Some(span) if span.prim == prim => {
+                // Setups come in ascending order: the first seen in a column is its first.
+                if x < span.columns.0 {
+                    (span.columns.0, span.setup) = (x, s);
+                }
+                span.columns.1 = span.columns.1.max(x);
+                span.setups.1 = s;
+            }
+            _ => spans.push(RowSpan {
+                prim,
+                columns: (x, x),
+                setup: s,
+                setups: (s, s),
+            }),
+        }
+    }
+    spans
+}
+
+/// The index of primitive `prim`'s entry in [`row_spans`]' list.
+pub fn span_of(spans: &[RowSpan], prim: u32) -> Option<usize> {
+    spans.binary_search_by_key(&prim, |span| span.prim).ok()
 }
 
 /// PB of the point at pixel x-boundary `x` (pixels) on the row's centre line `y_fixed`.
@@ -128,12 +164,16 @@ pub fn pair_tiles(
 
 #[cfg(test)]
 mod tests {
-    use glam::{Vec2, Vec3};
+    use glam::{Vec2, Vec3, Vec4};
     use shadetrace_formats::{Eye, Pose, StereoRig};
 
+    use proptest::prelude::*;
+    use shadetrace_formats::results::VertexStats;
+
     use super::*;
+    use crate::bins::{Bins, TileGrid};
     use crate::geometry::{FrameGeometry, Triangle};
-    use crate::vertex_stage::setup_view;
+    use crate::vertex_stage::{setup_clip_triangle, setup_view};
 
     fn rig(ipd: f32) -> StereoRig {
         StereoRig {
@@ -168,6 +208,76 @@ mod tests {
 
     fn span(t: &SetupTriangle, tile: u32) -> TileSpan {
         (t.bbox[0] / tile, t.bbox[2] / tile)
+    }
+
+    /// [`row_spans`]' definition: every entry of the row as (primitive, column, setup) in
+    /// column order, grouped by primitive (a stable sort), each group's first and last
+    /// column, its first entry's setup and its setups' range.
+    fn row_spans_by_definition(input: &ScheduleInput, row: u32, v: usize) -> Vec<RowSpan> {
+        let tiles_x = input.bins.grid.tiles_x;
+        let mut seen: Vec<(u32, u32, u32)> = (0..tiles_x)
+            .flat_map(|x| {
+                input.bins.lists[v][(row * tiles_x + x) as usize]
+                    .iter()
+                    .map(move |&s| (input.setups[v][s as usize].prim, x, s))
+            })
+            .collect();
+        seen.sort_by_key(|&(prim, _, _)| prim);
+        seen.chunk_by(|a, b| a.0 == b.0)
+            .map(|run| RowSpan {
+                prim: run[0].0,
+                columns: (run[0].1, run[run.len() - 1].1),
+                setup: run[0].2,
+                setups: (
+                    run.iter().map(|e| e.2).min().unwrap(),
+                    run.iter().map(|e| e.2).max().unwrap(),
+                ),
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// Row spans from (setup, column) keys equal their definition, and a span's setup
+        /// range picks out of every list of the row exactly the primitive's entries, on
+        /// primitives with up to three setups (as clipping makes them).
+        #[test]
+        fn row_spans_group_each_primitives_entries(
+            prims in prop::collection::vec(
+                prop::collection::vec(prop::array::uniform3((-1.3f32..1.3, -1.3f32..1.3)), 1..4),
+                1..30,
+            )
+        ) {
+            let (width, height) = (70, 53);
+            let grid = TileGrid::new(width, height, 16);
+            let mut views = [Vec::new(), Vec::new()];
+            let mut stats = VertexStats::default();
+            for (prim, setups) in prims.iter().enumerate() {
+                for (v, view) in views.iter_mut().enumerate() {
+                    for c in setups {
+                        let verts = c.map(|(x, y)| Vec4::new(x + 0.1 * v as f32, y, 0.5, 1.0));
+                        setup_clip_triangle(prim as u32, verts, true, (width, height), view, &mut stats);
+                    }
+                }
+            }
+            let bins = Bins::build(grid, [&views[0], &views[1]]);
+            let input = ScheduleInput { bins: &bins, setups: [&views[0], &views[1]] };
+            for row in 0..grid.tiles_y {
+                for (v, setups) in views.iter().enumerate() {
+                    let spans = row_spans(&input, row, v);
+                    prop_assert_eq!(&spans, &row_spans_by_definition(&input, row, v));
+                    for span in &spans {
+                        for x in 0..grid.tiles_x {
+                            let list = &bins.lists[v][(row * grid.tiles_x + x) as usize];
+                            let (first, last) = span.setups;
+                            let in_range: Vec<u32> = list.iter().copied().filter(|s| (first..=last).contains(s)).collect();
+                            let of_prim: Vec<u32> =
+                                list.iter().copied().filter(|&s| setups[s as usize].prim == span.prim).collect();
+                            prop_assert_eq!(in_range, of_prim);
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

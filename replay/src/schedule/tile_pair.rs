@@ -73,19 +73,33 @@ impl TilePair {
         let spans = [0, 1].map(|v| row_spans(input, row, v));
         let rect = grid.rect(row * tiles_x);
         let center_y = (rect.y0 + rect.y1) / 2;
-        let mut entries: Vec<((u32, u32), u32)> = Vec::new();
+        // (pair, the primitive's span in each view's list) in pairing order.
+        let mut entries: Vec<((u32, u32), [u32; 2])> = Vec::new();
         let mut pairs = Vec::new();
-        for &(prim, l, ls) in &spans[0] {
-            let Some((r, rs)) = span_of(&spans[1], prim) else {
+        for (i, left) in spans[0].iter().enumerate() {
+            let Some(j) = span_of(&spans[1], left.prim) else {
                 continue;
             };
+            let right = &spans[1][j];
             pairs.clear();
-            let (left, right) = (&input.setups[0][ls as usize], &input.setups[1][rs as usize]);
-            pair_tiles(left, right, l, r, center_y, grid.tile, grid.width, &mut pairs);
-            entries.extend(pairs.iter().map(|&p| (p, prim)));
+            let (l, r) = (
+                &input.setups[0][left.setup as usize],
+                &input.setups[1][right.setup as usize],
+            );
+            pair_tiles(
+                l,
+                r,
+                left.columns,
+                right.columns,
+                center_y,
+                grid.tile,
+                grid.width,
+                &mut pairs,
+            );
+            entries.extend(pairs.iter().map(|&p| (p, [i as u32, j as u32])));
         }
         let pair_lists = PairLists::new(entries);
-        let pair_entries = pair_lists.prims.len() as u64;
+        let pair_entries = pair_lists.spans.len() as u64;
         let sequences = self.sequences(&pair_lists);
 
         // Units: both tiles of each pair, a triangle once per tile, then the leftovers.
@@ -93,14 +107,10 @@ impl TilePair {
             [0, 1].map(|v| (0..tiles_x).map(|x| vec![false; list(v, x).len()]).collect());
         let mut commands = Vec::new();
         let mut current = 0u32;
-        let mut emit = |v: usize, x: u32, prim: Option<u32>, sequence: u32, commands: &mut Vec<Command>| {
+        let mut emit = |v: usize, x: u32, setups: Option<(u32, u32)>, sequence: u32, commands: &mut Vec<Command>| {
             let l = list(v, x);
-            let range = match prim {
-                Some(p) => {
-                    let start = l.partition_point(|&s| input.setups[v][s as usize].prim < p);
-                    let end = l.partition_point(|&s| input.setups[v][s as usize].prim <= p);
-                    start..end
-                }
+            let range = match setups {
+                Some((first, last)) => l.partition_point(|&s| s < first)..l.partition_point(|&s| s <= last),
                 None => 0..l.len(),
             };
             for i in range {
@@ -121,9 +131,10 @@ impl TilePair {
         };
         for (s, sequence) in sequences.iter().enumerate() {
             for &pair in sequence {
-                for &prim in pair_lists.prims_of(pair) {
-                    emit(0, pair.0, Some(prim), s as u32 + 1, &mut commands);
-                    emit(1, pair.1, Some(prim), s as u32 + 1, &mut commands);
+                for &[i, j] in pair_lists.spans_of(pair) {
+                    let sequence = s as u32 + 1;
+                    emit(0, pair.0, Some(spans[0][i as usize].setups), sequence, &mut commands);
+                    emit(1, pair.1, Some(spans[1][j as usize].setups), sequence, &mut commands);
                 }
             }
         }
@@ -174,17 +185,18 @@ impl TilePair {
 }
 
 /// A row's tile-pair lists: the pairs in order, each with its primitives in the order they
-/// were paired (sorted arrays, searched: a row holds a few hundred pairs).
+/// were paired, as their spans in each view's [`row_spans`] (sorted arrays, searched: a row
+/// holds a few hundred pairs).
 struct PairLists {
     pairs: Vec<(u32, u32)>,
-    /// Where each pair's primitives start in `prims` (one more entry than pairs).
+    /// Where each pair's primitives start in `spans` (one more entry than pairs).
     starts: Vec<usize>,
-    prims: Vec<u32>,
+    spans: Vec<[u32; 2]>,
 }
 
 impl PairLists {
-    /// From (pair, primitive) entries in pairing order.
-    fn new(mut entries: Vec<((u32, u32), u32)>) -> PairLists {
+    /// From (pair, primitive's spans) entries in pairing order.
+    fn new(mut entries: Vec<((u32, u32), [u32; 2])>) -> PairLists {
         // Stable: a pair's primitives keep their pairing order.
         entries.sort_by_key(|&(pair, _)| pair);
         let (mut pairs, mut starts) = (Vec::new(), Vec::new());
@@ -198,7 +210,7 @@ impl PairLists {
         PairLists {
             pairs,
             starts,
-            prims: entries.into_iter().map(|(_, prim)| prim).collect(),
+            spans: entries.into_iter().map(|(_, spans)| spans).collect(),
         }
     }
 
@@ -206,9 +218,9 @@ impl PairLists {
         self.pairs.binary_search(&pair).ok()
     }
 
-    fn prims_of(&self, pair: (u32, u32)) -> &[u32] {
+    fn spans_of(&self, pair: (u32, u32)) -> &[[u32; 2]] {
         self.index(pair)
-            .map_or(&[], |i| &self.prims[self.starts[i]..self.starts[i + 1]])
+            .map_or(&[], |i| &self.spans[self.starts[i]..self.starts[i + 1]])
     }
 }
 
