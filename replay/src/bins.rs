@@ -55,7 +55,9 @@ pub struct Bins {
 
 impl Bins {
     pub fn build(grid: TileGrid, views: [&[SetupTriangle]; 2]) -> Bins {
-        let lists = views.map(|tris| bin_view(grid, tris));
+        // The views side by side: each one starts with a serial pass over its triangles.
+        let (left, right) = rayon::join(|| bin_view(grid, views[0]), || bin_view(grid, views[1]));
+        let lists = [left, right];
         Bins {
             tile: grid.tile,
             grid,
