@@ -529,8 +529,8 @@ pub struct Timing {
     pub pixels_per_s: f64,
     /// Wall milliseconds per stage over all frames, so users see where their time goes:
     /// geometry, shadow, vertex, bins, raster_shade, view_pass, memory, assemble, quality,
-    /// images (writing this run's pictures). Memory and assemble run at once, each timed on
-    /// its own, as are the two frames a run replays at once.
+    /// images (writing this run's pictures). Shadow and vertex run at once, as do memory and
+    /// assemble, each timed on its own, as are the two frames a run replays at once.
     #[serde(default)]
     pub stages_ms: BTreeMap<String, f64>,
 }

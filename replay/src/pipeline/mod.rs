@@ -22,7 +22,7 @@ use shadetrace_formats::results::{
     CacheReport, DaisStats, ListStats, RasterStats, ReprojectionStats, ShadingCacheStats, ShadingCost, ShadowPassStats,
     Traffic, VertexStats,
 };
-use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene};
+use shadetrace_formats::{Eye, Frame, LightKind, Meta, Motion, Scene, StereoRig};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -33,7 +33,7 @@ use crate::memory::{simulate, CacheSizes, FramebufferLayout, LogSegment, RenderT
 use crate::options::ReplayOptions;
 use crate::raster::sample_offsets;
 use crate::schedule::{ScheduleInput, Scheduler, INDICES};
-use crate::scheme::{FinishedFrame, Passes, ShadingScheme};
+use crate::scheme::{FinishedFrame, Passes, ShadingScheme, ViewPass};
 use crate::shader::{ShaderEnv, ShadingLight};
 use crate::shadow::{ReceiverHierarchy, ShadowMap};
 use crate::texture::MipTexture;
@@ -214,12 +214,22 @@ pub fn run_frame(
     let mut clock = StageClock::start();
     let geometry = FrameGeometry::build(&prepared.scene, frame);
     clock.lap("geometry");
-    let shadow = shadow_pass(prepared, meta, frame.index, &geometry, opts);
-    let receivers: Option<Arc<ReceiverHierarchy>> = match (&shadow, scheme.edge_receiver_delta()) {
-        (Some(map), Some(delta)) => Some(map.receivers(delta)),
-        _ => None,
+    // The shadow pass (when its map is not kept) and the eyes' vertex stage read only the
+    // geometry: side by side, each fills the threads the other's serial parts leave idle.
+    let declared = scheme.view_pass();
+    let shadows = || {
+        let shadow = shadow_pass(prepared, meta, frame.index, &geometry, opts);
+        let receivers: Option<Arc<ReceiverHierarchy>> = match (&shadow, scheme.edge_receiver_delta()) {
+            (Some(map), Some(delta)) => Some(map.receivers(delta)),
+            _ => None,
+        };
+        (shadow, receivers)
     };
-    clock.lap("shadow");
+    let (((shadow, receivers), shadow_time), (views, vertex_time)) = rayon::join(
+        || timed(shadows),
+        || timed(|| vertex_stage(prepared, &geometry, &rig, declared, (width, height))),
+    );
+    clock.overlapped(&[("shadow", shadow_time), ("vertex", vertex_time)]);
     let env = ShaderEnv {
         materials: &prepared.scene.materials,
         textures: &prepared.textures,
@@ -228,26 +238,7 @@ pub fn run_frame(
         receivers: receivers.as_deref(),
         maps: &prepared.scene.surface_maps,
     };
-    // A view that a view-to-view pass makes is not drawn: no vertex work, no bins, no units.
-    let declared = scheme.view_pass();
-    let views: [ViewSetup; 2] = Eye::BOTH.map(|eye| {
-        if declared.is_some_and(|p| p.to != p.from && !p.draw_to && p.to as usize == eye as usize) {
-            return ViewSetup {
-                triangles: Vec::new(),
-                stats: VertexStats::default(),
-            };
-        }
-        let (triangles, stats) = setup_view(
-            &geometry,
-            &prepared.double_sided,
-            rig.view_projection(eye),
-            width,
-            height,
-        );
-        ViewSetup { triangles, stats }
-    });
     let setups = [views[0].triangles.as_slice(), views[1].triangles.as_slice()];
-    clock.lap("vertex");
     let grid = TileGrid::new(width, height, opts.tile);
     let bins = Bins::build(grid, setups);
     let schedule = scheduler.schedule(&ScheduleInput { bins: &bins, setups });
@@ -422,6 +413,30 @@ fn cached(maps: &[(ShadowKey, Arc<ShadowMap>)], key: ShadowKey) -> Option<Arc<Sh
 
 /// The shadow map of the trace's shadowed directional light, if it has one: rendered, or
 /// the one already rendered for the same casters and size.
+/// Both eyes' setup triangles, side by side. A view that a view-to-view pass makes is not
+/// drawn: no vertex work, no bins, no units.
+fn vertex_stage(
+    prepared: &PreparedScene,
+    geometry: &FrameGeometry,
+    rig: &StereoRig,
+    declared: Option<ViewPass>,
+    (width, height): (u32, u32),
+) -> [ViewSetup; 2] {
+    let view = |eye: Eye| {
+        if declared.is_some_and(|p| p.to != p.from && !p.draw_to && p.to as usize == eye as usize) {
+            return ViewSetup {
+                triangles: Vec::new(),
+                stats: VertexStats::default(),
+            };
+        }
+        let projection = rig.view_projection(eye);
+        let (triangles, stats) = setup_view(geometry, &prepared.double_sided, projection, width, height);
+        ViewSetup { triangles, stats }
+    };
+    let (left, right) = rayon::join(|| view(Eye::Left), || view(Eye::Right));
+    [left, right]
+}
+
 fn shadow_pass(
     prepared: &PreparedScene,
     meta: &Meta,
