@@ -11,7 +11,9 @@ pub type IssueKey = (u8, [u64; 4], usize, usize);
 ///
 /// Sorted as one `u128` each where the fields' ranges fit (every scheduler's do on real
 /// frames: a few bits each): a key's fields side by side, each as wide as its largest
-/// value, compare as the tuple does, and move 16 bytes a key instead of the tuple's 56.
+/// value, compare as the tuple does, and move 16 bytes a key instead of the tuple's 56. They
+/// sort by radix (`radsort`: a linear pass per byte on which keys differ, 6 to 10 of them)
+/// instead of a comparison sort's 17 levels (10^5 keys a frame at 1280x1440 per eye).
 /// Otherwise the tuples themselves.
 pub fn issue_order(mut keys: Vec<IssueKey>) -> Vec<(usize, usize)> {
     // A scheduler that issues jobs in turn (tile-pair's rows) lists its keys in order.
@@ -19,7 +21,7 @@ pub fn issue_order(mut keys: Vec<IssueKey>) -> Vec<(usize, usize)> {
         match Packing::fit(&keys) {
             Some(packing) => {
                 let mut packed: Vec<u128> = keys.par_iter().map(|key| packing.pack(key)).collect();
-                packed.par_sort_unstable();
+                radsort::sort(&mut packed);
                 return packed.par_iter().map(|&p| packing.job_segment(p)).collect();
             }
             None => keys.par_sort_unstable(),
