@@ -227,7 +227,7 @@ pub fn run_frame(
     };
     let (((shadow, receivers), shadow_time), (views, vertex_time)) = rayon::join(
         || timed(shadows),
-        || timed(|| vertex_stage(prepared, &geometry, &rig, declared, (width, height))),
+        || timed(|| eye_setups(prepared, &geometry, &rig, declared, (width, height))),
     );
     clock.overlapped(&[("shadow", shadow_time), ("vertex", vertex_time)]);
     let env = ShaderEnv {
@@ -411,11 +411,9 @@ fn cached(maps: &[(ShadowKey, Arc<ShadowMap>)], key: ShadowKey) -> Option<Arc<Sh
     maps.iter().find(|(k, _)| *k == key).map(|(_, map)| map.clone())
 }
 
-/// The shadow map of the trace's shadowed directional light, if it has one: rendered, or
-/// the one already rendered for the same casters and size.
 /// Both eyes' setup triangles, side by side. A view that a view-to-view pass makes is not
 /// drawn: no vertex work, no bins, no units.
-fn vertex_stage(
+fn eye_setups(
     prepared: &PreparedScene,
     geometry: &FrameGeometry,
     rig: &StereoRig,
@@ -437,6 +435,8 @@ fn vertex_stage(
     [left, right]
 }
 
+/// The shadow map of the trace's shadowed directional light, if it has one: rendered, or
+/// the one already rendered for the same casters and size.
 fn shadow_pass(
     prepared: &PreparedScene,
     meta: &Meta,

@@ -165,10 +165,9 @@ pub fn pair_tiles(
 #[cfg(test)]
 mod tests {
     use glam::{Vec2, Vec3, Vec4};
-    use shadetrace_formats::{Eye, Pose, StereoRig};
-
     use proptest::prelude::*;
     use shadetrace_formats::results::VertexStats;
+    use shadetrace_formats::{Eye, Pose, StereoRig};
 
     use super::*;
     use crate::bins::{Bins, TileGrid};
