@@ -42,8 +42,8 @@ impl Scheduler for Multiview {
                             });
                         };
                         match (v, span_of(&spans[1], prim).map(|j| spans[1][j])) {
-                            (0, Some(right)) => {
-                                let (r, rs) = (right.columns, right.setup);
+                            (0, Some(other)) => {
+                                let (r, rs) = (other.columns, other.setup);
                                 pairs.clear();
                                 let (left, right) = (&input.setups[0][s as usize], &input.setups[1][rs as usize]);
                                 let center_y = (rect.y0 + rect.y1) / 2;

@@ -26,9 +26,10 @@ pub struct RowSpan {
     pub columns: TileSpan,
     /// Its first setup triangle in its first column (a clipped primitive may have several).
     pub setup: u32,
-    /// Its first and last setup triangles on the row: a tile list holds its setups in
-    /// submission order, so the primitive's entries in any of the row's lists are those
-    /// between the two, found without reading a setup.
+    /// Its first and last setup triangles on the row: a primitive's setups are consecutive
+    /// (the vertex stage lists them in primitive order) and a tile list holds setups in
+    /// that order, so the primitive's entries in any of the row's lists are those between
+    /// the two, found without reading a setup.
     pub setups: (u32, u32),
 }
 
@@ -63,12 +64,18 @@ pub fn row_spans(input: &ScheduleInput, row: u32, v: usize) -> Vec<RowSpan> {
                 span.columns.1 = span.columns.1.max(x);
                 span.setups.1 = s;
             }
-            _ => spans.push(RowSpan {
-                prim,
-                columns: (x, x),
-                setup: s,
-                setups: (s, s),
-            }),
+            _ => {
+                debug_assert!(
+                    spans.last().is_none_or(|last| last.prim < prim),
+                    "setups out of primitive order"
+                );
+                spans.push(RowSpan {
+                    prim,
+                    columns: (x, x),
+                    setup: s,
+                    setups: (s, s),
+                })
+            }
         }
     }
     spans
@@ -238,7 +245,8 @@ mod tests {
     proptest! {
         /// Row spans from (setup, column) keys equal their definition, and a span's setup
         /// range picks out of every list of the row exactly the primitive's entries, on
-        /// primitives with up to three setups (as clipping makes them).
+        /// primitives of one to three triangles (as clipping splits one into several
+        /// setups), each of which may set up as none.
         #[test]
         fn row_spans_group_each_primitives_entries(
             prims in prop::collection::vec(
@@ -250,9 +258,9 @@ mod tests {
             let grid = TileGrid::new(width, height, 16);
             let mut views = [Vec::new(), Vec::new()];
             let mut stats = VertexStats::default();
-            for (prim, setups) in prims.iter().enumerate() {
+            for (prim, triangles) in prims.iter().enumerate() {
                 for (v, view) in views.iter_mut().enumerate() {
-                    for c in setups {
+                    for c in triangles {
                         let verts = c.map(|(x, y)| Vec4::new(x + 0.1 * v as f32, y, 0.5, 1.0));
                         setup_clip_triangle(prim as u32, verts, true, (width, height), view, &mut stats);
                     }
@@ -268,7 +276,8 @@ mod tests {
                         for x in 0..grid.tiles_x {
                             let list = &bins.lists[v][(row * grid.tiles_x + x) as usize];
                             let (first, last) = span.setups;
-                            let in_range: Vec<u32> = list.iter().copied().filter(|s| (first..=last).contains(s)).collect();
+                            let in_range: Vec<u32> =
+                                list.iter().copied().filter(|s| (first..=last).contains(s)).collect();
                             let of_prim: Vec<u32> =
                                 list.iter().copied().filter(|&s| setups[s as usize].prim == span.prim).collect();
                             prop_assert_eq!(in_range, of_prim);

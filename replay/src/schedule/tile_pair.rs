@@ -73,7 +73,7 @@ impl TilePair {
         let spans = [0, 1].map(|v| row_spans(input, row, v));
         let rect = grid.rect(row * tiles_x);
         let center_y = (rect.y0 + rect.y1) / 2;
-        // (pair, the primitive's span in each view's list) in pairing order.
+        // (pair, the primitive's index in each view's `spans`) in pairing order.
         let mut entries: Vec<((u32, u32), [u32; 2])> = Vec::new();
         let mut pairs = Vec::new();
         for (i, left) in spans[0].iter().enumerate() {
@@ -82,13 +82,13 @@ impl TilePair {
             };
             let right = &spans[1][j];
             pairs.clear();
-            let (l, r) = (
+            let (left_setup, right_setup) = (
                 &input.setups[0][left.setup as usize],
                 &input.setups[1][right.setup as usize],
             );
             pair_tiles(
-                l,
-                r,
+                left_setup,
+                right_setup,
                 left.columns,
                 right.columns,
                 center_y,
@@ -130,11 +130,11 @@ impl TilePair {
             }
         };
         for (s, sequence) in sequences.iter().enumerate() {
+            let number = s as u32 + 1;
             for &pair in sequence {
                 for &[i, j] in pair_lists.spans_of(pair) {
-                    let sequence = s as u32 + 1;
-                    emit(0, pair.0, Some(spans[0][i as usize].setups), sequence, &mut commands);
-                    emit(1, pair.1, Some(spans[1][j as usize].setups), sequence, &mut commands);
+                    emit(0, pair.0, Some(spans[0][i as usize].setups), number, &mut commands);
+                    emit(1, pair.1, Some(spans[1][j as usize].setups), number, &mut commands);
                 }
             }
         }
