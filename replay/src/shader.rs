@@ -24,7 +24,7 @@ use crate::cost_table::Block;
 use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::shadow::{PcfFootprint, ReceiverHierarchy, ShadowMap};
-use crate::texture::MipTexture;
+use crate::texture::{Lod, MipTexture};
 use wide::f32x4;
 
 /// Constant ambient term so unlit sides are not black.
@@ -100,6 +100,42 @@ pub struct SurfacePoint {
     pub duv_dx: Vec2,
     pub duv_dy: Vec2,
     pub tangent: Vec4,
+    /// The levels of detail of its material's textures at these derivatives, where its quad
+    /// found them once for its lanes ([`ShaderEnv::texture_lods`]); each sample finds its
+    /// own otherwise.
+    pub lods: Option<TextureLods>,
+}
+
+impl SurfacePoint {
+    /// The point of a material that samples no texture, which reads nothing of it.
+    pub const UNTEXTURED: SurfacePoint = SurfacePoint {
+        uv: Vec2::ZERO,
+        duv_dx: Vec2::ZERO,
+        duv_dy: Vec2::ZERO,
+        tangent: Vec4::ZERO,
+        lods: None,
+    };
+}
+
+/// The most textures a material samples: base colour, metallic-roughness, occlusion,
+/// emissive and normal maps.
+const MATERIAL_TEXTURES: usize = 5;
+
+/// The level of detail of each texture a material samples, at one pair of derivatives.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TextureLods {
+    textures: [u32; MATERIAL_TEXTURES],
+    lods: [Lod; MATERIAL_TEXTURES],
+    len: usize,
+}
+
+impl TextureLods {
+    /// Texture `texture`'s level of detail, if its material samples it.
+    #[inline]
+    fn of(&self, texture: u32) -> Option<Lod> {
+        let i = self.textures[..self.len].iter().position(|&t| t == texture)?;
+        Some(self.lods[i])
+    }
 }
 
 /// Interpolated inputs of the coarse-able lighting.
@@ -862,13 +898,25 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) -> Vec4 {
+        let at = SurfacePoint {
+            uv,
+            duv_dx,
+            duv_dy,
+            ..SurfacePoint::default()
+        };
+        self.albedo_at(material, &at, blocks, log)
+    }
+
+    /// [`Self::albedo`] at a surface point.
+    #[inline(always)]
+    fn albedo_at(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec4 {
         blocks.take(Block::FineSetup);
         let m = &self.materials[material as usize];
         let base = Vec4::from(m.base_color);
         match m.base_color_texture {
             Some(t) => {
                 blocks.take(Block::AlbedoTextured);
-                base * self.textures[t as usize].sample(uv, duv_dx, duv_dy, log)
+                base * self.sample_map(t, at, log)
             }
             None => {
                 blocks.take(Block::AlbedoConstant);
@@ -879,14 +927,50 @@ impl ShaderEnv<'_> {
 
     /// A surface map's trilinear sample where `at` says.
     fn sample_map(&self, texture: u32, at: &SurfacePoint, log: &mut AccessLog) -> Vec4 {
-        self.textures[texture as usize].sample(at.uv, at.duv_dx, at.duv_dy, log)
+        let map = &self.textures[texture as usize];
+        match at.lods.and_then(|lods| lods.of(texture)) {
+            Some(lod) => map.sample_at(at.uv, lod, log),
+            None => map.sample(at.uv, at.duv_dx, at.duv_dy, log),
+        }
+    }
+
+    /// The textures `material` may sample: base colour, metallic-roughness, occlusion,
+    /// emissive and normal maps.
+    fn material_textures(&self, material: u32) -> [Option<u32>; MATERIAL_TEXTURES] {
+        let maps = self.maps.of(material);
+        [
+            self.materials[material as usize].base_color_texture,
+            maps.metallic_roughness.map(|(texture, ..)| texture),
+            maps.occlusion.map(|(texture, _)| texture),
+            maps.emissive_texture,
+            maps.normal.map(|(texture, _)| texture),
+        ]
+    }
+
+    /// Whether `material` samples any texture: a material that does not reads nothing of
+    /// its surface points.
+    pub fn samples_textures(&self, material: u32) -> bool {
+        self.material_textures(material).iter().any(Option::is_some)
+    }
+
+    /// The level of detail of every texture `material` samples at derivatives (`dx`, `dy`):
+    /// what each of a quad's lanes, which share them, would find. None for a material
+    /// without textures.
+    pub fn texture_lods(&self, material: u32, dx: Vec2, dy: Vec2) -> Option<TextureLods> {
+        let mut lods = TextureLods::default();
+        for texture in self.material_textures(material).into_iter().flatten() {
+            lods.textures[lods.len] = texture;
+            lods.lods[lods.len] = self.textures[texture as usize].lod(dx, dy);
+            lods.len += 1;
+        }
+        (lods.len > 0).then_some(lods)
     }
 
     /// The fine surface at `at`: [`ShaderEnv::albedo`], and the occlusion and emission of
     /// the material's maps (nothing more for a material without them).
     #[inline(always)]
     pub fn surface(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Surface {
-        let mut surface = Surface::of_albedo(self.albedo(material, at.uv, at.duv_dx, at.duv_dy, blocks, log));
+        let mut surface = Surface::of_albedo(self.albedo_at(material, at, blocks, log));
         let maps = self.maps.of(material);
         if let Some((texture, strength)) = maps.occlusion {
             blocks.take(Block::OcclusionMap);
@@ -1231,8 +1315,9 @@ mod tests {
         /// A quad shaded together (`quad_colors`) gives each lane the colour bits, the blocks
         /// and the reads, in order, of the lane's own lighting, surface and compose: with and
         /// without a light list, a base colour texture and each map but the normal map or
-        /// not, and Phong parameters out of range. A quad lit by a point
-        /// light is left to its lanes, with nothing read or taken.
+        /// not, and Phong parameters out of range; the quad's textures' levels of detail
+        /// found once for it, the lanes' each on their own. A quad lit by a point light is
+        /// left to its lanes, with nothing read or taken.
         #[test]
         fn quad_colors_are_each_lanes_own(
             eye in vec3(),
@@ -1260,20 +1345,21 @@ mod tests {
                 alpha: AlphaMode::Opaque,
                 double_sided: true,
             };
-            let noise = |seed: u32, left: u8| shadetrace_formats::Texture {
+            // Of two sizes, so that their levels of detail differ.
+            let noise = |seed: u32, left: u8, width: u32| shadetrace_formats::Texture {
                 name: String::new(),
-                width: 16,
+                width,
                 height: 16,
                 wrap_u: shadetrace_formats::Wrap::Repeat,
                 wrap_v: shadetrace_formats::Wrap::ClampToEdge,
                 // One value on the left half (black colour, white data), so that a quad's
                 // lanes can emit or not, and be occluded or not.
-                rgba8: (0..16 * 16 * 4)
-                    .map(|i: u32| if i / 4 % 16 < 8 { left } else { (i.wrapping_mul(seed) % 251) as u8 })
+                rgba8: (0..width * 16 * 4)
+                    .map(|i: u32| if i / 4 % width < width / 2 { left } else { (i.wrapping_mul(seed) % 251) as u8 })
                     .collect(),
             };
-            let (colour, end) = MipTexture::build(&noise(7, 0), 0, true);
-            let (data, _) = MipTexture::build(&noise(13, 255), end, false);
+            let (colour, end) = MipTexture::build(&noise(7, 0, 16), 0, true);
+            let (data, _) = MipTexture::build(&noise(13, 255, 64), end, false);
             let maps = SurfaceMaps {
                 materials: vec![shadetrace_formats::MaterialMaps {
                     normal: None,
@@ -1311,11 +1397,18 @@ mod tests {
                 duv_dx: Vec2::new(derivatives[0], derivatives[1]),
                 duv_dy: Vec2::new(derivatives[2], derivatives[3]),
                 tangent: Vec4::ZERO,
+                lods: None,
+            });
+            // The quad's points with its textures' levels of detail found once (as
+            // `per-pixel` shades them), the lanes' without: the same colours and reads.
+            let quad_points = points.map(|at| SurfacePoint {
+                lods: env.texture_lods(0, at.duv_dx, at.duv_dy),
+                ..at
             });
             let list = list.as_deref();
             let (mut quad_log, mut lane_log) = (AccessLog::new(), AccessLog::new());
             let mut quad_blocks = BlockSet::new(lights.len());
-            let together = env.quad_colors(&quad, 0, &points, list, &mut quad_blocks, &mut quad_log);
+            let together = env.quad_colors(&quad, 0, &quad_points, list, &mut quad_blocks, &mut quad_log);
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
             let Some(together) = together else {
                 prop_assert!(point_light);

@@ -35,6 +35,15 @@ pub fn level_lines(width: u32, height: u32) -> u64 {
     (width.div_ceil(BLOCK) * height.div_ceil(BLOCK)) as u64
 }
 
+/// Where a trilinear sample falls in a mip chain: the finer of the two levels it blends and
+/// the coarser one's weight. It depends only on the texture and the screen derivatives,
+/// which a quad's four lanes share: a quad finds it once ([`crate::shader::TextureLods`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lod {
+    level: u32,
+    t: f32,
+}
+
 /// A texture ready for sampling.
 pub struct MipTexture {
     pub levels: Vec<Level>,
@@ -112,6 +121,11 @@ impl MipTexture {
     /// Trilinear sample at `uv` with screen derivatives `dx`, `dy` (uv per pixel); every
     /// texel fetched is logged.
     pub fn sample(&self, uv: Vec2, dx: Vec2, dy: Vec2, log: &mut AccessLog) -> Vec4 {
+        self.sample_at(uv, self.lod(dx, dy), log)
+    }
+
+    /// Where a sample with screen derivatives `dx` and `dy` (in uv) falls in the mip chain.
+    pub fn lod(&self, dx: Vec2, dy: Vec2) -> Lod {
         let base = &self.levels[0];
         let size = Vec2::new(base.width as f32, base.height as f32);
         let rho = (dx * size).length().max((dy * size).length());
@@ -122,8 +136,16 @@ impl MipTexture {
         };
         let max_level = (self.levels.len() - 1) as f32;
         let lod = lod.clamp(0.0, max_level);
-        let l0 = floor(lod) as usize;
-        let t = lod - l0 as f32;
+        let level = floor(lod) as u32;
+        Lod {
+            level,
+            t: lod - level as f32,
+        }
+    }
+
+    /// [`Self::sample`] at a level of detail already found ([`Self::lod`]).
+    pub fn sample_at(&self, uv: Vec2, Lod { level, t }: Lod, log: &mut AccessLog) -> Vec4 {
+        let l0 = level as usize;
         let a = self.bilinear(l0, uv, log);
         if t > 0.0 && l0 + 1 < self.levels.len() {
             let b = self.bilinear(l0 + 1, uv, log);

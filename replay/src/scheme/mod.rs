@@ -135,6 +135,22 @@ pub struct QuadAttributes {
     pub uv: [Vec2; 4],
 }
 
+/// A quad's surface points ([`UnitContext::quad_surface_points`]). A material without
+/// textures reads nothing of them: none are built for it, a few hundred bytes a quad.
+pub enum QuadPoints {
+    Untextured,
+    Textured([SurfacePoint; 4]),
+}
+
+impl QuadPoints {
+    pub fn get(&self) -> &[SurfacePoint; 4] {
+        match self {
+            QuadPoints::Untextured => &[SurfacePoint::UNTEXTURED; 4],
+            QuadPoints::Textured(points) => points,
+        }
+    }
+}
+
 impl QuadAttributes {
     /// Lane `l`'s attributes.
     pub fn lane(&self, l: usize) -> LaneAttributes {
@@ -233,7 +249,23 @@ impl UnitContext<'_> {
             duv_dx,
             duv_dy,
             tangent,
+            lods: None,
         }
+    }
+
+    /// The surface points of the quad whose top-left pixel is (`x`, `y`), lane `l` at
+    /// `uvs[l]`: the derivatives, and so its textures' levels of detail, are the quad's,
+    /// found once for the four lanes.
+    pub fn quad_surface_points(&self, uvs: [Vec2; 4], x: u32, y: u32) -> QuadPoints {
+        if !self.env.samples_textures(self.triangle.material) {
+            return QuadPoints::Untextured;
+        }
+        let (duv_dx, duv_dy) = (uvs[1] - uvs[0], uvs[2] - uvs[0]);
+        let lods = self.env.texture_lods(self.triangle.material, duv_dx, duv_dy);
+        QuadPoints::Textured(std::array::from_fn(|l| SurfacePoint {
+            lods,
+            ..self.surface_point(uvs[l], duv_dx, duv_dy, x + (l as u32 & 1), y + (l as u32 >> 1))
+        }))
     }
 
     /// Whether the triangle's material has a normal map, so its lanes need [`Self::tangent_at`].

@@ -17,7 +17,7 @@ use super::{Accounting, SchemeJob, ShadeQuad, ShadingScheme, TileContext, UnitCo
 use crate::cost::{BlockSet, SimdPacker, FINE};
 use crate::pipeline::SampleBuffer;
 use crate::raster::Rect;
-use crate::shader::{compose, QuadLighting, SurfacePoint};
+use crate::shader::{compose, QuadLighting};
 
 pub struct PerPixel;
 
@@ -86,9 +86,6 @@ impl SchemeJob for PerPixelJob {
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
             let attributes = ctx.quad_attributes(quad.x, quad.y);
-            let uvs = attributes.uv;
-            let duv_dx = uvs[1] - uvs[0];
-            let duv_dy = uvs[2] - uvs[0];
             let quad_lit = ctx.env.quad_lighting(
                 material,
                 ctx.eye,
@@ -101,16 +98,14 @@ impl SchemeJob for PerPixelJob {
                 tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
             });
             let lane_pixel = |l: usize| (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
-            let points: [SurfacePoint; 4] = std::array::from_fn(|l| {
-                let (x, y) = lane_pixel(l);
-                ctx.surface_point(uvs[l], duv_dx, duv_dy, x, y)
-            });
+            let points = ctx.quad_surface_points(attributes.uv, quad.x, quad.y);
+            let points = points.get();
             // Lanes that take the same blocks are shaded together and costed alike.
             self.blocks.clear();
             let together = match quad_lit {
                 true => ctx
                     .env
-                    .quad_colors(&self.quad, material, &points, list, &mut self.blocks, acc.log),
+                    .quad_colors(&self.quad, material, points, list, &mut self.blocks, acc.log),
                 false => None,
             };
             if let Some(out) = together {

@@ -163,13 +163,24 @@ pub(super) fn corner_attributes(ctx: &UnitContext, samples: [Vec2; 4]) -> [LaneA
 }
 
 /// Where a block's four shading points (in corner order: x, then y) sample the surface
-/// maps: each point's footprint is the spacing of the points, the rate it shades at.
-pub(super) fn corner_surfaces(corners: &[LaneAttributes; 4], tangents: [Vec4; 4]) -> [SurfacePoint; 4] {
+/// maps: each point's footprint is the spacing of the points, the rate it shades at (so the
+/// four share their textures' levels of detail, found once). A material without textures
+/// reads nothing of them.
+pub(super) fn corner_surfaces(
+    ctx: &UnitContext,
+    corners: &[LaneAttributes; 4],
+    tangents: [Vec4; 4],
+) -> [SurfacePoint; 4] {
+    if !ctx.env.samples_textures(ctx.triangle.material) {
+        return [SurfacePoint::UNTEXTURED; 4];
+    }
     let (duv_dx, duv_dy) = (corners[1].uv - corners[0].uv, corners[2].uv - corners[0].uv);
+    let lods = ctx.env.texture_lods(ctx.triangle.material, duv_dx, duv_dy);
     std::array::from_fn(|i| SurfacePoint {
         uv: corners[i].uv,
         duv_dx,
         duv_dy,
         tangent: tangents[i],
+        lods,
     })
 }

@@ -370,7 +370,7 @@ impl MultirateJob {
             }),
             false => [Vec4::ZERO; 4],
         };
-        let surfaces = corner_surfaces(&corners, tangents);
+        let surfaces = corner_surfaces(ctx, &corners, tangents);
         // The block's own cache keys, computed once for the query and the store.
         let keys: Option<[CacheKey; 4]> = self
             .cache
@@ -505,15 +505,16 @@ impl MultirateJob {
         last_block: &mut usize,
         acc: &mut Accounting,
     ) -> [Vec4; 4] {
-        let lanes = ctx.quad_attributes(quad.x, quad.y).lanes();
-        let duv_dx = lanes[1].uv - lanes[0].uv;
-        let duv_dy = lanes[2].uv - lanes[0].uv;
+        let attributes = ctx.quad_attributes(quad.x, quad.y);
+        let lanes = attributes.lanes();
         let Some(sources) = self.lane_sources(index, quad, last_block) else {
             return [Vec4::ZERO; 4];
         };
+        let points = ctx.quad_surface_points(attributes.uv, quad.x, quad.y);
+        let points = points.get();
         match sources.iter().all(|&(block, ..)| self.blocks[block].refine.is_empty()) {
-            true => self.shade_quad_resampled(ctx, quad, &lanes, (duv_dx, duv_dy), &sources, acc),
-            false => self.shade_quad_lanes(ctx, quad, &lanes, (duv_dx, duv_dy), &sources, acc),
+            true => self.shade_quad_resampled(ctx, quad, points, &sources, acc),
+            false => self.shade_quad_lanes(ctx, quad, &lanes, points, &sources, acc),
         }
     }
 
@@ -523,7 +524,7 @@ impl MultirateJob {
         ctx: &UnitContext,
         quad: &ShadeQuad,
         lanes: &[LaneAttributes; 4],
-        (duv_dx, duv_dy): (Vec2, Vec2),
+        points: &[SurfacePoint; 4],
         sources: &[(usize, [f32; 4], usize); 4],
         acc: &mut Accounting,
     ) -> [Vec4; 4] {
@@ -548,7 +549,7 @@ impl MultirateJob {
             let f = self.fine_lane();
             let lane_blocks = &mut self.fine_lanes[f].blocks;
             lane_blocks.take(Block::Resample);
-            let at = ctx.surface_point(lane.uv, duv_dx, duv_dy, x, y);
+            let at = points[l];
             if !refine.is_empty() {
                 let inputs = lane.lighting_inputs(ctx.eye, material, at);
                 ctx.env
@@ -576,8 +577,7 @@ impl MultirateJob {
         &mut self,
         ctx: &UnitContext,
         quad: &ShadeQuad,
-        lanes: &[LaneAttributes; 4],
-        (duv_dx, duv_dy): (Vec2, Vec2),
+        points: &[SurfacePoint; 4],
         sources: &[(usize, [f32; 4], usize); 4],
         acc: &mut Accounting,
     ) -> [Vec4; 4] {
@@ -588,8 +588,7 @@ impl MultirateJob {
             let f = self.fine_lane();
             let fine = &mut self.fine_lanes[f];
             fine.blocks.take(Block::Resample);
-            let at = ctx.surface_point(lanes[l].uv, duv_dx, duv_dy, x, y);
-            *surface = ctx.env.surface(material, &at, &mut fine.blocks, acc.log);
+            *surface = ctx.env.surface(material, &points[l], &mut fine.blocks, acc.log);
             fine.blocks.take(Block::Compose);
             let useful = quad.lanes & (1 << l) != 0;
             let pixel = acc.heat.pixel(|| ctx.pixel_id(x, y));
@@ -728,8 +727,11 @@ mod tests {
                 .collect();
             let sources = std::array::from_fn(|l| (blocks_of_lanes[l], weights[l], l));
             let quad = ShadeQuad { x: 2 * x, y: 2 * y, lanes };
-            let attributes = ctx.quad_attributes(quad.x, quad.y).lanes();
-            let derivatives = (attributes[1].uv - attributes[0].uv, attributes[2].uv - attributes[0].uv);
+            let quad_attributes = ctx.quad_attributes(quad.x, quad.y);
+            let attributes = quad_attributes.lanes();
+            // The textures' levels of detail found once for the quad, then by each lane.
+            let points = *ctx.quad_surface_points(quad_attributes.uv, quad.x, quad.y).get();
+            let own_points = points.map(|at| SurfacePoint { lods: None, ..at });
             let mut shade = |resampled: bool| {
                 let (mut cost, mut heat, mut cache) = (StageCosts::default(), CostHeatList::new(false), ShadingCacheStats::default());
                 let mut log = AccessLog::new();
@@ -744,8 +746,8 @@ mod tests {
                 };
                 job.fine_used = 0;
                 let colours = match resampled {
-                    true => job.shade_quad_resampled(&ctx, &quad, &attributes, derivatives, &sources, &mut acc),
-                    false => job.shade_quad_lanes(&ctx, &quad, &attributes, derivatives, &sources, &mut acc),
+                    true => job.shade_quad_resampled(&ctx, &quad, &points, &sources, &mut acc),
+                    false => job.shade_quad_lanes(&ctx, &quad, &attributes, &own_points, &sources, &mut acc),
                 };
                 let fine: Vec<_> = job.fine_lanes[..4]
                     .iter()

@@ -390,7 +390,7 @@ impl MultirateJob {
                         true => barys.map(|b| ctx.tangent_at_bary(b)),
                         false => [Vec4::ZERO; 4],
                     };
-                    corner_surfaces(&barys.map(|b| ctx.interpolate(b)), tangents)
+                    corner_surfaces(ctx, &barys.map(|b| ctx.interpolate(b)), tangents)
                 }
             };
             let [a, c, d] = ctx.triangle.vertices.map(|v| v as usize);

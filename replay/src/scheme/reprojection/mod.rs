@@ -513,6 +513,7 @@ impl ReprojectionJob {
             duv_dx: Vec2::new(scale, 0.0),
             duv_dy: Vec2::new(0.0, scale),
             tangent: g.tangent(triangle.vertices, Vec3::new(w, hit.u, hit.v)),
+            lods: None,
         };
         let surface = ctx.env.surface(material, &at, &mut self.blocks, acc.log);
         let inputs = LightingInputs {
