@@ -132,7 +132,7 @@ pub struct TextureLods {
 impl TextureLods {
     /// Texture `texture`'s level of detail, if its material samples it.
     #[inline]
-    fn of(&self, texture: u32) -> Option<Lod> {
+    pub fn of(&self, texture: u32) -> Option<Lod> {
         let i = self.textures[..self.len].iter().position(|&t| t == texture)?;
         Some(self.lods[i])
     }

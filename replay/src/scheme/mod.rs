@@ -262,9 +262,22 @@ impl UnitContext<'_> {
         }
         let (duv_dx, duv_dy) = (uvs[1] - uvs[0], uvs[2] - uvs[0]);
         let lods = self.env.texture_lods(self.triangle.material, duv_dx, duv_dy);
+        // The lanes' tangents from their barycentrics, found four at a time
+        // ([`Self::tangent`]'s, bit for bit).
+        let tangents = match self.needs_tangents() {
+            true => {
+                let (px, py) = pixel_center(x, y);
+                let b = self.setup.original_barys(self.setup.quad_edges(px, py));
+                std::array::from_fn(|l| self.tangent_at_bary(Vec3::new(b[0][l], b[1][l], b[2][l])))
+            }
+            false => [Vec4::ZERO; 4],
+        };
         QuadPoints::Textured(std::array::from_fn(|l| SurfacePoint {
+            uv: uvs[l],
+            duv_dx,
+            duv_dy,
+            tangent: tangents[l],
             lods,
-            ..self.surface_point(uvs[l], duv_dx, duv_dy, x + (l as u32 & 1), y + (l as u32 >> 1))
         }))
     }
 
@@ -571,6 +584,77 @@ mod tests {
                 prop_assert_eq!(bits(&got.position.to_array()), bits(&want.position.to_array()));
                 prop_assert_eq!(bits(&got.normal.to_array()), bits(&want.normal.to_array()));
                 prop_assert_eq!(bits(&got.uv.to_array()), bits(&want.uv.to_array()));
+            }
+        }
+
+        /// A quad's surface points (a normal-mapped material's: tangents, four lanes at a
+        /// time) are each lane's own, bit for bit, and carry the quad's levels of detail.
+        #[test]
+        fn quad_surface_points_are_each_lanes_own(
+            positions in prop::array::uniform3(vec3(-1.0..1.0)),
+            depths in prop::array::uniform3(1.5f32..6.0),
+            uvs in prop::array::uniform3(prop::array::uniform2(-4.0f32..4.0)),
+            tangents in prop::array::uniform3(prop::array::uniform4(-1.0f32..1.0)),
+            x in 0u32..32,
+            y in 0u32..24,
+        ) {
+            let geometry = FrameGeometry {
+                positions: std::array::from_fn::<_, 3, _>(|v| (positions[v] * depths[v]).with_z(-depths[v])).to_vec(),
+                normals: vec![Vec3::Z; 3],
+                uvs: uvs.map(Vec2::from_array).to_vec(),
+                tangents: tangents.map(Vec4::from_array).to_vec(),
+                triangles: vec![Triangle { vertices: [0, 1, 2], material: 0, patch: u32::MAX, mesh: 0 }],
+            };
+            let view_projection = Mat4::perspective_rh(1.2, 64.0 / 48.0, 0.1, 10.0);
+            let (setups, _) = setup_view(&geometry, &[true], view_projection, 64, 48);
+            prop_assume!(!setups.is_empty());
+            let material = shadetrace_formats::Material {
+                name: String::new(),
+                base_color: [1.0; 4],
+                base_color_texture: None,
+                specular_exponent: 8.0,
+                specular_strength: 0.5,
+                alpha: shadetrace_formats::AlphaMode::Opaque,
+                double_sided: false,
+            };
+            let texture = shadetrace_formats::Texture {
+                name: String::new(),
+                width: 32,
+                height: 8,
+                wrap_u: shadetrace_formats::Wrap::Repeat,
+                wrap_v: shadetrace_formats::Wrap::Repeat,
+                rgba8: vec![128; 32 * 8 * 4],
+            };
+            let (texture, _) = crate::texture::MipTexture::build(&texture, 0, false);
+            let maps = SurfaceMaps {
+                materials: vec![shadetrace_formats::MaterialMaps {
+                    normal: Some((0, 1.0)),
+                    ..shadetrace_formats::MaterialMaps::NONE
+                }],
+                tangents: Vec::new(),
+                linear_textures: vec![0],
+            };
+            let env = ShaderEnv {
+                materials: std::slice::from_ref(&material),
+                textures: std::slice::from_ref(&texture),
+                lights: &[],
+                shadow: None,
+                receivers: None,
+                maps: &maps,
+            };
+            let ctx = test_unit(&geometry, &env, &setups, view_projection, (64, 48));
+            let (x, y) = (2 * x, 2 * y);
+            let uvs = ctx.quad_attributes(x, y).uv;
+            let (dx, dy) = (uvs[1] - uvs[0], uvs[2] - uvs[0]);
+            let points = ctx.quad_surface_points(uvs, x, y);
+            let bits = |v: &[f32]| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+            for (l, got) in points.get().iter().enumerate() {
+                let want = ctx.surface_point(uvs[l], dx, dy, x + (l as u32 & 1), y + (l as u32 >> 1));
+                prop_assert_eq!(bits(&got.uv.to_array()), bits(&want.uv.to_array()));
+                prop_assert_eq!(bits(&got.tangent.to_array()), bits(&want.tangent.to_array()));
+                prop_assert_eq!((got.duv_dx, got.duv_dy), (dx, dy));
+                let lod = got.lods.and_then(|lods| lods.of(0));
+                prop_assert_eq!(lod, Some(texture.lod(dx, dy)));
             }
         }
     }
