@@ -136,7 +136,10 @@ pub struct QuadAttributes {
 }
 
 /// A quad's surface points ([`UnitContext::quad_surface_points`]). A material without
-/// textures reads nothing of them: none are built for it, a few hundred bytes a quad.
+/// textures reads nothing of them: none are built for it, a few hundred bytes a quad. A
+/// value on the stack, never stored, whose empty variant is there to skip writing the
+/// large one (a box would allocate per quad).
+#[allow(clippy::large_enum_variant)]
 pub enum QuadPoints {
     Untextured,
     Textured([SurfacePoint; 4]),
