@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use shadetrace_formats::results::ListStats;
 
-use super::pairing::{pair_tiles, row_spans, span_of};
+use super::pairing::{pair_tiles, row_spans, span_of, RowSpan};
 use super::{per_tile_jobs, Command, ListTraffic, Schedule, ScheduleInput, Scheduler, Unit};
 
 pub struct Multiview;
@@ -31,8 +31,13 @@ impl Scheduler for Multiview {
                 let spans = [0, 1].map(|v| row_spans(input, row, v));
                 let rect = grid.rect(row * grid.tiles_x);
                 for v in 0..2u8 {
-                    for entry in &spans[v as usize] {
-                        let (prim, span, s) = (entry.prim, entry.columns, entry.setup);
+                    for &RowSpan {
+                        prim,
+                        columns: span,
+                        setup: s,
+                        ..
+                    } in &spans[v as usize]
+                    {
                         let tile = |x: u32| row * grid.tiles_x + x;
                         let mut next = 0u32;
                         let mut rank = |view: u8, x: u32, ranks: &mut HashMap<(u8, u32, u32), u32>| {
