@@ -139,6 +139,30 @@ pub fn rasterize(t: &SetupTriangle, tile: Rect, offsets: &[[i64; 2]], mut emit: 
     }
 }
 
+/// Calls `emit(y, x0, x1)` for every row of the tile whose pixel centres the triangle
+/// covers, top to bottom, with the covered columns `x0..x1`: one sample per pixel, the
+/// pixels [`rasterize`] covers at MSAA 1 (tested against it), for a pass that needs no quads
+/// (the shadow map's depth-only pass, which then walks each run of texels in turn).
+#[inline(always)]
+pub fn rasterize_rows(t: &SetupTriangle, tile: Rect, mut emit: impl FnMut(u32, u32, u32)) {
+    let y0 = t.bbox[1].max(tile.y0);
+    let y1 = (t.bbox[3] + 1).min(tile.y1);
+    if y0 >= y1 || tile.x0 >= tile.x1 {
+        return;
+    }
+    let (col_lo, col_hi) = (i64::from(tile.x0), i64::from(tile.x1) - 1);
+    let steps = EdgeSteps::new(t);
+    let mut series = ColumnSeries::new(t, &steps, y0, [8, 8]);
+    for y in y0..y1 {
+        let (lo, hi) = series.columns(&steps);
+        let (lo, hi) = (lo.max(col_lo), hi.min(col_hi));
+        if lo <= hi {
+            emit(y, lo as u32, hi as u32 + 1);
+        }
+        series = series.stepped(&steps, &steps.one_row);
+    }
+}
+
 /// The three edges' divisors and row steps, shared by every [`ColumnSeries`] of a triangle:
 /// edge `i` accepts sample x where `d sx <= m` (`d = b1 - a1`; `m` linear in the row), so its
 /// bound is `floor(m / |d|)`, kept as quotient and remainder, and one sample row down `m`
@@ -362,6 +386,19 @@ mod tests {
                         rasterize(t, tile, offsets, |q| fast.push(q));
                         rasterize_by_samples(t, tile, offsets, |q| exact.push(q));
                         assert_eq!(fast, exact, "triangle {:?}, tile {tile:?}, msaa {msaa}", t.v);
+                        if msaa == 1 {
+                            let pixels = |q: &Quad| {
+                                let q = *q;
+                                (0..4u32)
+                                    .filter(move |l| q.coverage & 1 << l != 0)
+                                    .map(move |l| (q.y + (l >> 1), q.x + (l & 1)))
+                            };
+                            let mut by_quads: Vec<(u32, u32)> = exact.iter().flat_map(pixels).collect();
+                            by_quads.sort_unstable();
+                            let mut by_rows = Vec::new();
+                            rasterize_rows(t, tile, |y, x0, x1| by_rows.extend((x0..x1).map(|x| (y, x))));
+                            assert_eq!(by_rows, by_quads, "rows of triangle {:?}, tile {tile:?}", t.v);
+                        }
                         checked += exact.len();
                     }
                 }

@@ -13,12 +13,14 @@ use wide::f32x4;
 use crate::geometry::FrameGeometry;
 use crate::lanes::Vec3x4;
 use crate::memory::{AccessLog, Stream};
-use crate::raster::{rasterize, sample_offsets, Rect};
+use crate::raster::{rasterize_rows, Rect};
 use crate::texture::{level_lines, BLOCK};
-use crate::vertex_stage::{setup_view_chunks, SetupTriangle};
+use crate::vertex_stage::{setup_view_chunks, SetupTriangle, SUBPIXEL};
 
 /// Rows of the map rasterized per parallel work item.
 const BAND: u32 = 64;
+// A band is whole block rows, so that it finds its blocks' ranges itself (`draw_map`).
+const _: () = assert!(BAND % BLOCK == 0);
 /// PCF footprint radius in texels (5x5).
 const PCF_RADIUS: i32 = 2;
 const PCF_TAPS: usize = 2 * PCF_RADIUS as usize + 1;
@@ -85,57 +87,12 @@ impl ShadowMap {
         let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
         let view_projection = proj * view;
         let (chunks, vstats) = setup_view_chunks(geometry, &vec![true; materials], view_projection, size, size);
-        let by_band = band_candidates(chunks.iter().flatten(), size);
-        // Cleared in parallel: the first touch of 16 MiB is itself worth spreading.
-        let mut depth: Vec<f32> = (0..size * size).into_par_iter().map(|_| 1.0).collect();
-        let texels_written: u64 = depth
-            .par_chunks_mut((BAND * size) as usize)
-            .zip(by_band)
-            .enumerate()
-            .map(|(band, (depth, candidates))| {
-                let band = band as u32;
-                let rect = Rect {
-                    x0: 0,
-                    y0: band * BAND,
-                    x1: size,
-                    y1: ((band + 1) * BAND).min(size),
-                };
-                let offsets = sample_offsets(1);
-                // Nearest first, so that the quads behind them are rejected before their
-                // depths are computed. A texel keeps the minimum of its depths, the same in
-                // any order: NaN never wins, and of two zeros, whose sign may now differ,
-                // no comparison tells one from the other.
-                let mut near_first = candidates;
-                near_first.retain(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0);
-                near_first.sort_by(|a, b| a.z_min.total_cmp(&b.z_min));
-                for t in near_first {
-                    rasterize(t, rect, offsets, |q| {
-                        let texel = |lane: u32| ((q.y + (lane >> 1) - rect.y0) * size + q.x + (lane & 1)) as usize;
-                        let covered = || (0..4u32).filter(|lane| q.coverage & (1 << lane) != 0);
-                        // No covered lane is nearer than the triangle's nearest vertex: where
-                        // the map already holds that or nearer, the quad changes nothing.
-                        if covered().all(|lane| depth[texel(lane)] <= t.z_min) {
-                            return;
-                        }
-                        // Every lane's depth at once (pure: uncovered lanes are dropped).
-                        let (px, py) = crate::raster::pixel_center(q.x, q.y);
-                        let z = t.depths(t.quad_edges(px, py));
-                        for lane in covered() {
-                            let d = &mut depth[texel(lane)];
-                            *d = d.min(z[lane as usize]);
-                        }
-                    });
-                }
-                // As 0 or 1 per texel into a u32 (a band holds fewer than 2^32 texels):
-                // SIMD compares and adds, where counting filtered texels went one by one.
-                u64::from(depth.iter().map(|&d| u32::from(d < 1.0)).sum::<u32>())
-            })
-            .sum();
+        let (depth, blocks, texels_written) = draw_map(chunks.iter().flatten(), size);
         ShadowMap {
             size,
             view_projection,
             blocks: size.div_ceil(BLOCK),
-            footprint_ranges: footprint_ranges(&depth, size),
+            footprint_ranges: footprint_ranges(&blocks, size),
             depth,
             base_line,
             texel_depth: 1.0 / size as f32,
@@ -415,6 +372,98 @@ impl ShadowMap {
     }
 }
 
+/// The map's depths (each texel's nearest, 1.0 where no triangle covers it), the (min, max)
+/// of each of its blocks ([`block_ranges`]) and the count of texels written: band by band in
+/// parallel, each band drawn and summarized while it is in cache.
+fn draw_map<'a>(tris: impl Iterator<Item = &'a SetupTriangle>, size: u32) -> (Vec<f32>, Vec<(f32, f32)>, u64) {
+    let by_band = band_candidates(tris, size);
+    // Cleared in parallel: the first touch of 16 MiB is itself worth spreading.
+    let mut depth: Vec<f32> = (0..size * size).into_par_iter().map(|_| 1.0).collect();
+    let (blocks, written): (Vec<Vec<(f32, f32)>>, Vec<u64>) = depth
+        .par_chunks_mut((BAND * size) as usize)
+        .zip(by_band)
+        .enumerate()
+        .map(|(band, (depth, candidates))| {
+            let band = band as u32;
+            let rect = Rect {
+                x0: 0,
+                y0: band * BAND,
+                x1: size,
+                y1: ((band + 1) * BAND).min(size),
+            };
+            // Nearest first, so that the texels it already holds nearer than a triangle's
+            // nearest vertex skip its depths. A texel keeps the minimum of its depths, the
+            // same in any order: NaN never wins, and of two zeros, whose sign may now
+            // differ, no comparison tells one from the other.
+            let mut near_first = candidates;
+            near_first.retain(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0);
+            near_first.sort_by(|a, b| a.z_min.total_cmp(&b.z_min));
+            for t in near_first {
+                rasterize_rows(t, rect, |y, x0, x1| {
+                    let start = ((y - rect.y0) * size) as usize;
+                    let (cx, cy) = crate::raster::pixel_center(x0, y);
+                    draw_run(t, t.edges(cx, cy), &mut depth[start + x0 as usize..start + x1 as usize]);
+                });
+            }
+            // As 0 or 1 per texel into a u32 (a band holds fewer than 2^32 texels): SIMD
+            // compares and adds, where counting filtered texels went one by one.
+            let written = u64::from(depth.iter().map(|&d| u32::from(d < 1.0)).sum::<u32>());
+            (block_ranges(depth, size), written)
+        })
+        .unzip();
+    (depth, blocks.concat(), written.iter().sum())
+}
+
+/// Keeps in each texel of a run the triangle covers the nearer of its depth and the
+/// triangle's; `e` holds the edges at the run's first texel. A texel already nearer than the
+/// triangle's nearest vertex needs no depth (the triangles come nearest first).
+///
+/// Four texels at a time, with the edges stepped in f64: a covered texel's edges lie in
+/// `0..=area2` (they are at least 0 and sum to it), so below 2^52 every stepped value, the
+/// three texels a last group reaches past the run included, is an exact integer, `e as f64`
+/// itself, and each depth is [`SetupTriangle::depth`]'s bit for bit.
+fn draw_run(t: &SetupTriangle, e: [i64; 3], run: &mut [f32]) {
+    let right = t.edge_ends().map(|(a, b)| (a[1] - b[1]) * SUBPIXEL);
+    let keep_nearer = |d: &mut f32, z: f32| {
+        if z < *d {
+            *d = z;
+        }
+    };
+    if t.area2 >= 1 << 52 {
+        let mut e = e;
+        for d in run {
+            if *d > t.z_min {
+                keep_nearer(d, t.depth(e));
+            }
+            e = [0, 1, 2].map(|i| e[i] + right[i]);
+        }
+        return;
+    }
+    // Per edge, its value at each texel of a group of four, and the step to the next group.
+    let mut lanes: [[f64; 4]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|l| (e[i] + l as i64 * right[i]) as f64));
+    let step = right.map(|r| (4 * r) as f64);
+    let mut groups = run.chunks_exact_mut(4);
+    for group in &mut groups {
+        if group.iter().any(|&d| d > t.z_min) {
+            let z: [f32; 4] = std::array::from_fn(|l| t.depth_of([lanes[0][l], lanes[1][l], lanes[2][l]]));
+            for (d, z) in group.iter_mut().zip(z) {
+                if *d > t.z_min {
+                    keep_nearer(d, z);
+                }
+            }
+        }
+        for (lane, step) in lanes.iter_mut().zip(step) {
+            *lane = lane.map(|v| v + step);
+        }
+    }
+    for (l, d) in groups.into_remainder().iter_mut().enumerate() {
+        if *d > t.z_min {
+            keep_nearer(d, t.depth_of([lanes[0][l], lanes[1][l], lanes[2][l]]));
+        }
+    }
+}
+
 /// Per band of the map, the triangles whose bounding boxes reach its rows, in submission
 /// order: each band then visits only those (the band's own test still decides), instead of
 /// every triangle of the scene once per band.
@@ -430,16 +479,15 @@ fn band_candidates<'a>(tris: impl Iterator<Item = &'a SetupTriangle>, size: u32)
     by_band
 }
 
-/// (min, max) of each BLOCK x BLOCK block of a `size`² map; a block holding a NaN gets the
-/// whole range, so that no comparison with it is ever taken as decided.
-fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
+/// (min, max) of each BLOCK x BLOCK block of `rows`, whole rows `size` texels wide from a
+/// block row's first (the last block row may be short), row-major; a block holding a NaN gets
+/// the whole range, so that no comparison with it is ever taken as decided.
+fn block_ranges(rows: &[f32], size: u32) -> Vec<(f32, f32)> {
     const COLUMNS: usize = BLOCK as usize;
     let blocks = size.div_ceil(BLOCK) as usize;
     let size = size as usize;
-    (0..blocks)
-        .into_par_iter()
-        .flat_map_iter(|by| {
-            let rows = &depth[by * COLUMNS * size..((by + 1) * COLUMNS).min(size) * size];
+    rows.chunks(COLUMNS * size)
+        .flat_map(|rows| {
             (0..blocks).map(move |bx| {
                 let columns = bx * COLUMNS..((bx + 1) * COLUMNS).min(size);
                 // Column by column first (the eight columns of a full block at once), then
@@ -480,11 +528,10 @@ fn block_ranges(depth: &[f32], size: u32) -> Vec<(f32, f32)> {
 /// missing neighbour is left out (no footprint spans it).
 type FootprintRanges = [(f32, f32); 4];
 
-/// [`FootprintRanges`] of every block of a `size`² map, from the blocks' own ranges. Min
-/// and max are exact in any order, and a block holding a NaN (the whole range) keeps every
-/// span that holds it undecided.
-fn footprint_ranges(depth: &[f32], size: u32) -> Vec<FootprintRanges> {
-    let block = block_ranges(depth, size);
+/// [`FootprintRanges`] of every block of a `size`² map, from the blocks' own ranges
+/// ([`block_ranges`]). Min and max are exact in any order, and a block holding a NaN (the
+/// whole range) keeps every span that holds it undecided.
+fn footprint_ranges(block: &[(f32, f32)], size: u32) -> Vec<FootprintRanges> {
     let blocks = size.div_ceil(BLOCK) as usize;
     let union = |(lo, hi): (f32, f32), (lo2, hi2): (f32, f32)| (lo.min(lo2), hi.max(hi2));
     (0..block.len())
@@ -596,7 +643,7 @@ mod tests {
             size,
             view_projection: Mat4::IDENTITY,
             blocks: size.div_ceil(BLOCK),
-            footprint_ranges: footprint_ranges(&depth, size),
+            footprint_ranges: footprint_ranges(&block_ranges(&depth, size), size),
             depth,
             base_line: 0,
             texel_depth: 1.0 / size as f32,
@@ -629,6 +676,42 @@ mod tests {
                 let expected: Vec<u32> = tris.iter().filter(|t| draws(t)).map(|t| t.prim).collect();
                 prop_assert_eq!(picked, expected, "band {}", band);
             }
+        }
+    }
+
+    proptest! {
+        /// The map holds each texel's nearest depth of the triangles covering its centre (the
+        /// definition, texel by texel), 1.0 elsewhere, with its blocks' ranges and the
+        /// count of texels written: over bands and a short last band and block row, with
+        /// triangles from a few texels to far past the map (edges too large to step in f64).
+        #[test]
+        fn the_map_holds_each_texels_nearest_depth(
+            triangles in prop::collection::vec(
+                (prop::array::uniform3((-1.3f32..1.3, -1.3f32..1.3, 0.0f32..1.0)), prop_oneof![Just(1.0f32), 0.05f32..0.3, Just(4000.0f32)]),
+                1..30,
+            )
+        ) {
+            use crate::vertex_stage::setup_clip_triangle;
+            let size = 2 * BAND + 13;
+            let (mut tris, mut stats) = (Vec::new(), shadetrace_formats::results::VertexStats::default());
+            for (i, (corners, scale)) in triangles.iter().enumerate() {
+                let verts = corners.map(|(x, y, z)| glam::Vec4::new(x * scale, y * scale, z, 1.0));
+                setup_clip_triangle(i as u32, verts, true, (size, size), &mut tris, &mut stats);
+            }
+            let (depth, blocks, written) = draw_map(tris.iter(), size);
+            for y in 0..size {
+                for x in 0..size {
+                    let (cx, cy) = crate::raster::pixel_center(x, y);
+                    let nearest = tris
+                        .iter()
+                        .filter(|t| t.inside(t.edges(cx, cy)))
+                        .map(|t| t.depth(t.edges(cx, cy)))
+                        .fold(1.0f32, f32::min);
+                    prop_assert_eq!(depth[(y * size + x) as usize], nearest, "texel ({}, {})", x, y);
+                }
+            }
+            prop_assert_eq!(blocks, block_ranges(&depth, size));
+            prop_assert_eq!(written, depth.iter().filter(|&&d| d < 1.0).count() as u64);
         }
     }
 

@@ -84,8 +84,14 @@ impl SetupTriangle {
     /// Depth at a sample from its edge values (screen-space linear).
     #[inline]
     pub fn depth(&self, e: [i64; 3]) -> f32 {
+        self.depth_of(e.map(|e| e as f64))
+    }
+
+    /// [`Self::depth`] from the edge values as f64 (the same bits where they are `e as f64`).
+    #[inline(always)]
+    pub fn depth_of(&self, e: [f64; 3]) -> f32 {
         let a = self.area2 as f64;
-        ((e[0] as f64 * self.z[0] as f64 + e[1] as f64 * self.z[1] as f64 + e[2] as f64 * self.z[2] as f64) / a) as f32
+        ((e[0] * self.z[0] as f64 + e[1] * self.z[1] as f64 + e[2] * self.z[2] as f64) / a) as f32
     }
 
     /// [`Self::depth`] at four samples at once: the same operations sample by sample (so the
