@@ -10,6 +10,7 @@
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 use shadetrace_formats::results::VertexStats;
+use wide::f64x4;
 
 use crate::geometry::FrameGeometry;
 
@@ -264,25 +265,20 @@ fn setup_triangle(
         stats.culled_frustum += 1;
         return;
     }
-    let mut polygon = [ClipVertex {
-        c: Vec4::ZERO,
-        bary: Vec3::ZERO,
-    }; 12];
-    polygon[0] = ClipVertex {
-        c: verts[0],
-        bary: Vec3::X,
-    };
-    polygon[1] = ClipVertex {
-        c: verts[1],
-        bary: Vec3::Y,
-    };
-    polygon[2] = ClipVertex {
-        c: verts[2],
-        bary: Vec3::Z,
-    };
-    let mut len = 3;
-    if (0..6).any(|p| d.iter().any(|dv| dv[p] < 0.0)) {
+    let corners = [Vec3::X, Vec3::Y, Vec3::Z];
+    let triangle: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex {
+        c: verts[i],
+        bary: corners[i],
+    });
+    let before = out.len();
+    if !(0..6).any(|p| d.iter().any(|dv| dv[p] < 0.0)) {
+        // Inside every plane: the triangle itself.
+        out.extend(snap(prim, triangle, double_sided, width, height, stats));
+    } else {
         stats.clipped += 1;
+        let mut polygon = [triangle[0]; 12];
+        polygon[..3].copy_from_slice(&triangle);
+        let mut len = 3;
         for plane in 0..6 {
             len = clip_polygon(&mut polygon, len, plane, guard);
             if len < 3 {
@@ -290,12 +286,9 @@ fn setup_triangle(
                 return;
             }
         }
-    }
-    let before = out.len();
-    for k in 1..len - 1 {
-        let fan = [polygon[0], polygon[k], polygon[k + 1]];
-        if let Some(t) = snap(prim, fan, double_sided, width, height, stats) {
-            out.push(t);
+        for k in 1..len - 1 {
+            let fan = [polygon[0], polygon[k], polygon[k + 1]];
+            out.extend(snap(prim, fan, double_sided, width, height, stats));
         }
     }
     stats.setup_triangles += (out.len() - before) as u64;
@@ -350,15 +343,14 @@ fn snap(
     let mut inv_w = [0f32; 3];
     for i in 0..3 {
         let c = fan[i].c;
-        let w = c.w as f64;
-        let sx = (c.x as f64 / w * 0.5 + 0.5) * width as f64;
-        let sy = (0.5 - c.y as f64 / w * 0.5) * height as f64;
-        v[i] = [
-            (sx * SUBPIXEL as f64).round() as i64,
-            (sy * SUBPIXEL as f64).round() as i64,
-        ];
-        z[i] = (c.z as f64 / w).clamp(0.0, 1.0) as f32;
-        inv_w[i] = (1.0 / w) as f32;
+        // The four divisions by w as two SIMD ones (each lane's own IEEE quotient).
+        let [x, y, z_ndc, inv] =
+            (f64x4::from([c.x as f64, c.y as f64, c.z as f64, 1.0]) / f64x4::splat(c.w as f64)).to_array();
+        let sx = (x * 0.5 + 0.5) * width as f64;
+        let sy = (0.5 - y * 0.5) * height as f64;
+        v[i] = [round_to_i64(sx * SUBPIXEL as f64), round_to_i64(sy * SUBPIXEL as f64)];
+        z[i] = z_ndc.clamp(0.0, 1.0) as f32;
+        inv_w[i] = inv as f32;
     }
     let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
     if area2 == 0 {
@@ -418,6 +410,20 @@ fn snap(
     })
 }
 
+/// `x.round() as i64` (halves away from zero, saturating), without the library call that
+/// `round` is on x86-64's baseline: below 2^52 the truncation and the fraction it leaves
+/// are exact, and above it every f64 is already an integer.
+#[inline]
+fn round_to_i64(x: f64) -> i64 {
+    if x.abs() < (1u64 << 52) as f64 {
+        let whole = x as i64;
+        let fraction = x - whole as f64;
+        whole + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5)
+    } else {
+        x as i64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -435,6 +441,28 @@ mod tests {
             z_min: 0.5,
             bias: [0; 3],
             front_facing: true,
+        }
+    }
+
+    proptest! {
+        /// The inline rounding is `round`'s: halves, their neighbours, integers, the range
+        /// where the fraction is exact and past it, and the saturating and NaN extremes.
+        #[test]
+        fn round_to_i64_is_rounds(
+            whole in prop_oneof![-1000i64..1000, -(1i64 << 53)..(1i64 << 53)],
+            offset in prop_oneof![Just(0.5f64), Just(-0.5), Just(0.0), -1.0f64..1.0],
+            ulps in -2i64..=2,
+            special in prop_oneof![
+                Just(None), Just(Some(f64::NAN)), Just(Some(f64::INFINITY)), Just(Some(f64::NEG_INFINITY)),
+                Just(Some(1e19)), Just(Some(-1e19)), Just(Some(-0.0)), Just(Some(0.49999999999999994)),
+                Just(Some(4503599627370495.5)), Just(Some(-4503599627370495.5)),
+            ],
+        ) {
+            let x = special.unwrap_or_else(|| {
+                let x = whole as f64 + offset;
+                f64::from_bits((x.to_bits() as i64 + ulps) as u64)
+            });
+            prop_assert_eq!(round_to_i64(x), x.round() as i64, "{}", x);
         }
     }
 
