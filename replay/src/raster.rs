@@ -55,7 +55,7 @@ pub fn overlaps(t: &SetupTriangle, r: Rect) -> bool {
     let (x0, y0) = (r.x0 as i64 * SUBPIXEL, r.y0 as i64 * SUBPIXEL);
     let (x1, y1) = (r.x1 as i64 * SUBPIXEL - 1, r.y1 as i64 * SUBPIXEL - 1);
     let corners = [t.edges(x0, y0), t.edges(x1, y0), t.edges(x0, y1), t.edges(x1, y1)];
-    (0..3).all(|i| corners.iter().any(|e| e[i] >= t.bias[i]))
+    (0..3).all(|i| corners.iter().any(|e| e[i] >= i64::from(t.bias[i])))
 }
 
 /// Calls `emit` for every quad of the tile the triangle covers, in raster order.
@@ -230,7 +230,7 @@ impl ColumnSeries {
         for (i, (a, b)) in t.edge_ends().into_iter().enumerate() {
             // E(sx) = (b0 - a0)(sy - a1) - d (sx - a0) >= bias  <=>  d sx <= m.
             let d = b[1] - a[1];
-            let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - t.bias[i];
+            let m = (b[0] - a[0]) * (sy - a[1]) + d * a[0] - i64::from(t.bias[i]);
             series.q[i] = floor_div(m, steps.divisor[i]);
             series.r[i] = m - series.q[i] * steps.divisor[i];
         }

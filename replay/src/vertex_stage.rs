@@ -28,8 +28,10 @@ const SETUP_CHUNK: usize = 2048;
 pub struct SetupTriangle {
     /// Index into [`FrameGeometry::triangles`]: the primitive id.
     pub prim: u32,
-    /// Snapped screen positions (y down), reordered if needed so that `area2 > 0`.
-    pub v: [[i64; 2]; 3],
+    /// Snapped screen positions (y down), reordered if needed so that `area2 > 0`: within
+    /// the guard band, a few times 2^27 sub-pixels at most, so 32 bits each (a triangle is
+    /// copied per view and read per tile; the edge functions work in i64).
+    pub v: [[i32; 2]; 3],
     /// Twice the signed area in fixed-point units squared (always positive).
     pub area2: i64,
     /// NDC depth in [0, 1] per vertex.
@@ -44,7 +46,7 @@ pub struct SetupTriangle {
     /// f64 rounding stays far within half an f32 step).
     pub z_min: f32,
     /// 1 where edge `i` (opposite vertex `i`) is not top-left: inside means `E_i >= bias_i`.
-    pub bias: [i64; 3],
+    pub bias: [u8; 3],
     /// Winding as submitted (false for the back side of a double-sided triangle).
     pub front_facing: bool,
 }
@@ -74,12 +76,13 @@ impl SetupTriangle {
     /// Edge `i`'s end points (from, to): the edge opposite vertex `i`.
     #[inline]
     pub fn edge_ends(&self) -> [([i64; 2], [i64; 2]); 3] {
-        [(self.v[1], self.v[2]), (self.v[2], self.v[0]), (self.v[0], self.v[1])]
+        let v = self.v.map(|p| p.map(i64::from));
+        [(v[1], v[2]), (v[2], v[0]), (v[0], v[1])]
     }
 
     #[inline]
     pub fn inside(&self, e: [i64; 3]) -> bool {
-        e[0] >= self.bias[0] && e[1] >= self.bias[1] && e[2] >= self.bias[2]
+        e[0] >= i64::from(self.bias[0]) && e[1] >= i64::from(self.bias[1]) && e[2] >= i64::from(self.bias[2])
     }
 
     /// Depth at a sample from its edge values (screen-space linear).
@@ -352,6 +355,12 @@ fn snap(
         z[i] = z_ndc.clamp(0.0, 1.0) as f32;
         inv_w[i] = inv as f32;
     }
+    // Clipped to the guard band, a vertex is far within 32 bits; one past them could only
+    // come of a w rounded to zero, and is no triangle to draw.
+    if v.iter().flatten().any(|&c| i32::try_from(c).is_err()) {
+        stats.culled_degenerate += 1;
+        return None;
+    }
     let area2 = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) - (v[2][0] - v[0][0]) * (v[1][1] - v[0][1]);
     if area2 == 0 {
         stats.culled_degenerate += 1;
@@ -378,9 +387,9 @@ fn snap(
         (d[1] == 0 && d[0] > 0) || d[1] < 0
     };
     let bias = [
-        i64::from(!top_left(v[1], v[2])),
-        i64::from(!top_left(v[2], v[0])),
-        i64::from(!top_left(v[0], v[1])),
+        u8::from(!top_left(v[1], v[2])),
+        u8::from(!top_left(v[2], v[0])),
+        u8::from(!top_left(v[0], v[1])),
     ];
     let min_x = v.iter().map(|p| p[0]).min().unwrap_or(0);
     let max_x = v.iter().map(|p| p[0]).max().unwrap_or(0);
@@ -393,7 +402,8 @@ fn snap(
     }
     Some(SetupTriangle {
         prim,
-        v,
+        // In range (above).
+        v: v.map(|p| p.map(|c| c as i32)),
         area2,
         z,
         inv_w,
@@ -432,7 +442,7 @@ mod tests {
     fn triangle(inv_w: [f32; 3], bary: [[f32; 3]; 3]) -> SetupTriangle {
         SetupTriangle {
             prim: 0,
-            v: [[0, 0], [SUBPIXEL, 0], [0, SUBPIXEL]],
+            v: [[0, 0], [SUBPIXEL as i32, 0], [0, SUBPIXEL as i32]],
             area2: SUBPIXEL * SUBPIXEL,
             z: [0.5; 3],
             inv_w,
@@ -470,7 +480,7 @@ mod tests {
         /// A quad's stepped edge functions are each lane's own, anywhere in the guard band.
         #[test]
         fn quad_edges_are_the_lanes_own(
-            v in prop::array::uniform3(prop::array::uniform2(-(1i64 << 27)..1i64 << 27)),
+            v in prop::array::uniform3(prop::array::uniform2(-(1i32 << 27)..1i32 << 27)),
             x in -(1i64 << 27)..1i64 << 27,
             y in -(1i64 << 27)..1i64 << 27,
         ) {
