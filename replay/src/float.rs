@@ -1,4 +1,4 @@
-//! Scalar `f32` operations that the baseline x86-64 target (SSE2, no `roundss`) compiles to
+//! Scalar float operations that the baseline x86-64 target (SSE2, no `roundss`) compiles to
 //! a libm call, written out exactly: the same value, sign of zero and NaN for every input.
 
 use wide::f32x4;
@@ -32,10 +32,55 @@ pub fn floor4(x: f32x4) -> f32x4 {
     kept.select(x, floor)
 }
 
+/// `x.round() as i64` (halves away from zero, saturating), without the library call that
+/// `round` is on x86-64's baseline: below 2^52 the truncation and the fraction it leaves
+/// are exact, and above it every f64 is already an integer. Of an f32 widened to f64, it
+/// is also `x.round() as i64` of the f32 (the same value, rounded the same way).
+#[inline]
+pub fn round_to_i64(x: f64) -> i64 {
+    if x.abs() < (1u64 << 52) as f64 {
+        let whole = x as i64;
+        let fraction = x - whole as f64;
+        whole + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5)
+    } else {
+        x as i64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        /// The inline rounding is `round`'s: halves, their neighbours, integers, the range
+        /// where the fraction is exact and past it, and the saturating and NaN extremes.
+        #[test]
+        fn round_to_i64_is_rounds(
+            whole in prop_oneof![-1000i64..1000, -(1i64 << 53)..(1i64 << 53)],
+            offset in prop_oneof![Just(0.5f64), Just(-0.5), Just(0.0), -1.0f64..1.0],
+            ulps in -2i64..=2,
+            special in prop_oneof![
+                Just(None), Just(Some(f64::NAN)), Just(Some(f64::INFINITY)), Just(Some(f64::NEG_INFINITY)),
+                Just(Some(1e19)), Just(Some(-1e19)), Just(Some(-0.0)), Just(Some(0.49999999999999994)),
+                Just(Some(4503599627370495.5)), Just(Some(-4503599627370495.5)),
+            ],
+        ) {
+            let x = special.unwrap_or_else(|| {
+                let x = whole as f64 + offset;
+                f64::from_bits((x.to_bits() as i64 + ulps) as u64)
+            });
+            prop_assert_eq!(round_to_i64(x), x.round() as i64, "{}", x);
+        }
+
+        /// So is it of an f32 widened, `roundf`'s, for any bits.
+        #[test]
+        fn round_to_i64_is_roundfs(bits in any::<u32>(), whole in -100_000i32..100_000, half in any::<bool>()) {
+            for x in [f32::from_bits(bits), whole as f32 + if half { 0.5 } else { 0.25 }] {
+                prop_assert_eq!(round_to_i64(f64::from(x)), x.round() as i64, "{}", x);
+            }
+        }
+    }
 
     proptest! {
         /// The bits of `f32::floor`, for any bit pattern: both zeros, subnormals, fractions

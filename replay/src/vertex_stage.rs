@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use shadetrace_formats::results::VertexStats;
 use wide::f64x4;
 
+use crate::float::round_to_i64;
 use crate::geometry::FrameGeometry;
 
 /// Sub-pixel precision of snapped vertices.
@@ -420,20 +421,6 @@ fn snap(
     })
 }
 
-/// `x.round() as i64` (halves away from zero, saturating), without the library call that
-/// `round` is on x86-64's baseline: below 2^52 the truncation and the fraction it leaves
-/// are exact, and above it every f64 is already an integer.
-#[inline]
-fn round_to_i64(x: f64) -> i64 {
-    if x.abs() < (1u64 << 52) as f64 {
-        let whole = x as i64;
-        let fraction = x - whole as f64;
-        whole + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5)
-    } else {
-        x as i64
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -451,28 +438,6 @@ mod tests {
             z_min: 0.5,
             bias: [0; 3],
             front_facing: true,
-        }
-    }
-
-    proptest! {
-        /// The inline rounding is `round`'s: halves, their neighbours, integers, the range
-        /// where the fraction is exact and past it, and the saturating and NaN extremes.
-        #[test]
-        fn round_to_i64_is_rounds(
-            whole in prop_oneof![-1000i64..1000, -(1i64 << 53)..(1i64 << 53)],
-            offset in prop_oneof![Just(0.5f64), Just(-0.5), Just(0.0), -1.0f64..1.0],
-            ulps in -2i64..=2,
-            special in prop_oneof![
-                Just(None), Just(Some(f64::NAN)), Just(Some(f64::INFINITY)), Just(Some(f64::NEG_INFINITY)),
-                Just(Some(1e19)), Just(Some(-1e19)), Just(Some(-0.0)), Just(Some(0.49999999999999994)),
-                Just(Some(4503599627370495.5)), Just(Some(-4503599627370495.5)),
-            ],
-        ) {
-            let x = special.unwrap_or_else(|| {
-                let x = whole as f64 + offset;
-                f64::from_bits((x.to_bits() as i64 + ulps) as u64)
-            });
-            prop_assert_eq!(round_to_i64(x), x.round() as i64, "{}", x);
         }
     }
 

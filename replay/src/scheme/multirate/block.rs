@@ -7,6 +7,7 @@ use std::ops::{Mul, Sub};
 use glam::{Vec2, Vec4};
 
 use super::MultirateJob;
+use crate::float::round_to_i64;
 use crate::scheme::{LaneAttributes, ShadeQuad, UnitContext};
 use crate::shader::{Effects, LightTerm, SurfacePoint};
 use crate::vertex_stage::SUBPIXEL;
@@ -152,8 +153,8 @@ impl MultirateJob {
 /// Fixed-point screen position of a coarse sample (pixel coordinates).
 pub(super) fn sample_fixed(s: Vec2) -> (i64, i64) {
     (
-        (s.x * SUBPIXEL as f32).round() as i64,
-        (s.y * SUBPIXEL as f32).round() as i64,
+        round_to_i64(f64::from(s.x * SUBPIXEL as f32)),
+        round_to_i64(f64::from(s.y * SUBPIXEL as f32)),
     )
 }
 
