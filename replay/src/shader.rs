@@ -1056,11 +1056,21 @@ fn local_term(
 
 /// `(R·L)^n` for the lit side, 0 behind.
 fn phong(r_dot_l: f32, exponent: f32) -> f32 {
-    if r_dot_l <= 0.0 {
+    if r_dot_l <= 0.0 || underflows(r_dot_l, exponent) {
         0.0
     } else {
         libm::powf(r_dot_l, exponent)
     }
+}
+
+/// Whether `powf(x, y)` is surely +0 for `x > 0`: `log2(x) <= (x - 1) / ln 2`, so where
+/// `y (x - 1) / ln 2` (in f64, a relative error near 2^-52) is below -151 (the bound holds
+/// only for `y > 0`, and is positive otherwise), the power lies below 2^-150.9, which rounds
+/// to zero, and `powf` returns it (it flushes a logarithm at or below -150). A glossy
+/// material's large exponents take most of its lanes' powers there: no call for them.
+#[inline]
+fn underflows(x: f32, y: f32) -> bool {
+    f64::from(y) * (f64::from(x) - 1.0) / std::f64::consts::LN_2 < -151.0
 }
 
 /// Final colour: albedo times lighting (its ambient part darkened by occlusion), plus
@@ -1475,6 +1485,26 @@ mod tests {
 
     /// `is_zero` is `== Vec3::ZERO`: at both zeros, the smallest subnormals, NaN of either
     /// sign, the infinities and ordinary values, in every combination of components.
+    proptest! {
+        /// Where the power is taken as underflowing, `powf` gives +0: bases from the
+        /// smallest subnormal to just below 1, exponents up to infinity, and exponents that
+        /// put the bound near the underflow (where, for bases near 1, it is the power's own
+        /// logarithm: a bound of -150 or more would take subnormal powers for zero).
+        #[test]
+        fn underflowing_powers_are_zero(
+            x in prop_oneof![f32::from_bits(1)..1.0f32, 0.99f32..1.0, Just(f32::from_bits(0x3f7f_ffff))],
+            y in prop_oneof![0.0f32..1e3, 0.0f32..1e9, Just(f32::INFINITY)],
+            bound in -153.0f64..-147.0,
+        ) {
+            let at_bound = (bound * std::f64::consts::LN_2 / (f64::from(x) - 1.0)) as f32;
+            for y in [y, at_bound] {
+                if underflows(x, y) {
+                    prop_assert_eq!(libm::powf(x, y).to_bits(), 0, "{}^{}", x, y);
+                }
+            }
+        }
+    }
+
     #[test]
     fn is_zero_is_comparison_with_zero() {
         let values = [
