@@ -1483,8 +1483,6 @@ mod tests {
         }
     }
 
-    /// `is_zero` is `== Vec3::ZERO`: at both zeros, the smallest subnormals, NaN of either
-    /// sign, the infinities and ordinary values, in every combination of components.
     proptest! {
         /// Where the power is taken as underflowing, `powf` gives +0: bases from the
         /// smallest subnormal to just below 1, exponents up to infinity, and exponents that
@@ -1505,6 +1503,8 @@ mod tests {
         }
     }
 
+    /// `is_zero` is `== Vec3::ZERO`: at both zeros, the smallest subnormals, NaN of either
+    /// sign, the infinities and ordinary values, in every combination of components.
     #[test]
     fn is_zero_is_comparison_with_zero() {
         let values = [
