@@ -100,14 +100,38 @@ impl Vec3x4 {
     /// finite and positive, else `fallback`.
     #[inline]
     pub fn normalize_or(self, fallback: Vec3x4) -> Vec3x4 {
+        let (scaled, usable) = self.try_normalize();
+        Vec3x4::select(usable, scaled, fallback)
+    }
+
+    /// glam's `try_normalize`: `self * (1 / sqrt(dot(self, self)))`, and the mask of the
+    /// lanes where that reciprocal is finite and positive (glam's `Some`; the others' lanes
+    /// are not for use).
+    #[inline]
+    pub fn try_normalize(self) -> (Vec3x4, f32x4) {
         let rcp = f32x4::ONE / self.dot(self).sqrt();
         // Finite and positive: below infinity and above zero (NaN is neither).
         let usable = rcp.simd_lt(f32x4::splat(f32::INFINITY)) & rcp.simd_gt(f32x4::ZERO);
-        let scaled = self.scale(rcp);
+        (self.scale(rcp), usable)
+    }
+
+    /// `a` in the lanes `mask` sets (all bits), `b` in the others.
+    #[inline]
+    pub fn select(mask: f32x4, a: Vec3x4, b: Vec3x4) -> Vec3x4 {
         Vec3x4 {
-            x: usable.bitselect(scaled.x, fallback.x),
-            y: usable.bitselect(scaled.y, fallback.y),
-            z: usable.bitselect(scaled.z, fallback.z),
+            x: mask.bitselect(a.x, b.x),
+            y: mask.bitselect(a.y, b.y),
+            z: mask.bitselect(a.z, b.z),
+        }
+    }
+
+    /// glam's `cross`.
+    #[inline]
+    pub fn cross(self, rhs: Vec3x4) -> Vec3x4 {
+        Vec3x4 {
+            x: self.y * rhs.z - rhs.y * self.z,
+            y: self.z * rhs.x - rhs.z * self.x,
+            z: self.x * rhs.y - rhs.x * self.y,
         }
     }
 
@@ -195,6 +219,9 @@ mod tests {
             let scaled = va.scale(vs).to_lanes();
             let flipped = va.negate_where_negative(vs, enabled).to_lanes();
             let unscaled = va.unscale(vs).to_lanes();
+            let crossed = va.cross(vb).to_lanes();
+            let (tried, usable) = va.try_normalize();
+            let (tried, usable) = (tried.to_lanes(), usable.to_array());
             let m = Mat4::from_cols_array(&std::array::from_fn(|i| [a[0], a[1], a[2], a[3], b[0], b[1]][i % 6].to_array()[i % 3]));
             let (clip, w) = va.transformed_point(&m);
             let (clip, w) = (clip.to_lanes(), w.to_array());
@@ -208,6 +235,11 @@ mod tests {
                 let flip = enabled && s[l] < 0.0;
                 prop_assert_eq!(bits(flipped[l]), bits(if flip { -a[l] } else { a[l] }));
                 prop_assert_eq!(bits(unscaled[l]), bits(a[l] / s[l]));
+                prop_assert_eq!(bits(crossed[l]), bits(a[l].cross(b[l])));
+                match a[l].try_normalize() {
+                    Some(n) => prop_assert!(usable[l].to_bits() == u32::MAX && bits(tried[l]) == bits(n)),
+                    None => prop_assert_eq!(usable[l].to_bits(), 0),
+                }
                 // A NaN's sign and payload follow the order the compiler gives an addition's
                 // operands, which nothing reads: any NaN matches any NaN.
                 let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());

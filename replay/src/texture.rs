@@ -144,18 +144,37 @@ impl MipTexture {
     }
 
     /// [`Self::sample`] at a level of detail already found ([`Self::lod`]).
-    pub fn sample_at(&self, uv: Vec2, Lod { level, t }: Lod, log: &mut AccessLog) -> Vec4 {
+    pub fn sample_at(&self, uv: Vec2, lod: Lod, log: &mut AccessLog) -> Vec4 {
+        self.trilinear(uv, lod, |line| log.touch(Stream::Texture, line, false))
+    }
+
+    /// [`Self::sample_at`]'s value alone, nothing logged: for a value wanted before its
+    /// reads' turn in the log, which [`Self::log_reads_at`] then logs.
+    pub fn value_at(&self, uv: Vec2, lod: Lod) -> Vec4 {
+        self.trilinear(uv, lod, |_| {})
+    }
+
+    /// [`Self::sample_at`]'s reads alone (the value goes unused, so its arithmetic is not
+    /// compiled in).
+    pub fn log_reads_at(&self, uv: Vec2, lod: Lod, log: &mut AccessLog) {
+        self.trilinear(uv, lod, |line| log.touch(Stream::Texture, line, false));
+    }
+
+    /// The trilinear sample, `touch` called with each texel's line, in fetch order.
+    #[inline(always)]
+    fn trilinear(&self, uv: Vec2, Lod { level, t }: Lod, mut touch: impl FnMut(u64)) -> Vec4 {
         let l0 = level as usize;
-        let a = self.bilinear(l0, uv, log);
+        let a = self.bilinear(l0, uv, &mut touch);
         if t > 0.0 && l0 + 1 < self.levels.len() {
-            let b = self.bilinear(l0 + 1, uv, log);
+            let b = self.bilinear(l0 + 1, uv, &mut touch);
             a * (1.0 - t) + b * t
         } else {
             a
         }
     }
 
-    fn bilinear(&self, level: usize, uv: Vec2, log: &mut AccessLog) -> Vec4 {
+    #[inline(always)]
+    fn bilinear(&self, level: usize, uv: Vec2, touch: &mut impl FnMut(u64)) -> Vec4 {
         let l = &self.levels[level];
         let x = uv.x * l.width as f32 - 0.5;
         let y = uv.y * l.height as f32 - 0.5;
@@ -172,7 +191,7 @@ impl MipTexture {
         let (u0, u1) = (wrap(x0, l.width, self.wrap_u), wrap(x0 + 1, l.width, self.wrap_u));
         let (v0, v1) = (wrap(y0, l.height, self.wrap_v), wrap(y0 + 1, l.height, self.wrap_v));
         let mut fetch = |u: u32, v: u32| {
-            log.touch(Stream::Texture, l.line_of(u, v), false);
+            touch(l.line_of(u, v));
             l.texels[(v * l.width + u) as usize]
         };
         let top = fetch(u0, v0) * (1.0 - fx) + fetch(u1, v0) * fx;

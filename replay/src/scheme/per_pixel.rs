@@ -86,11 +86,14 @@ impl SchemeJob for PerPixelJob {
         let fine = acc.cost.stage_mut(FINE);
         for quad in quads {
             let attributes = ctx.quad_attributes(quad.x, quad.y);
+            let points = ctx.quad_surface_points(attributes.uv, quad.x, quad.y);
+            let points = points.get();
             let quad_lit = ctx.env.quad_lighting(
                 material,
                 ctx.eye,
                 attributes.position,
                 attributes.normal,
+                Some(points),
                 &mut self.quad,
             );
             let list = self.lists.as_ref().map(|tiles| {
@@ -98,8 +101,6 @@ impl SchemeJob for PerPixelJob {
                 tiles.lists.get(&key).map_or(&[][..], Vec::as_slice)
             });
             let lane_pixel = |l: usize| (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
-            let points = ctx.quad_surface_points(attributes.uv, quad.x, quad.y);
-            let points = points.get();
             // Lanes that take the same blocks are shaded together and costed alike.
             self.blocks.clear();
             let together = match quad_lit {

@@ -411,7 +411,9 @@ impl MultirateJob {
     ) -> [usize; 4] {
         let (n, material) = (self.lights, ctx.triangle.material);
         let (p, nrm) = (Vec3x4::from_lanes(positions), Vec3x4::from_lanes(normals));
-        let four_wide = ctx.env.quad_lighting(material, ctx.eye, p, nrm, &mut self.quad);
+        let four_wide = ctx
+            .env
+            .quad_lighting(material, ctx.eye, p, nrm, Some(surfaces), &mut self.quad);
         let mut lanes = [0; 4];
         for i in (0..4).filter(|&i| shaded[i]) {
             let terms = &mut terms[i * n..(i + 1) * n];
