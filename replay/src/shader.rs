@@ -24,7 +24,7 @@ use crate::cost_table::Block;
 use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::shadow::{PcfFootprint, ReceiverHierarchy, ShadowMap};
-use crate::texture::{Lod, MipTexture};
+use crate::texture::{Lod, MipTexture, TexelLines};
 use wide::f32x4;
 
 /// Constant ambient term so unlit sides are not black.
@@ -278,6 +278,9 @@ pub struct QuadLighting {
     n_dot_l: [[f32; 4]; QUAD_LIGHTS],
     r_dot_l: [[f32; 4]; QUAD_LIGHTS],
     footprints: [[Option<PcfFootprint>; 4]; QUAD_LIGHTS],
+    /// Each lane's normal-map reads, taken with the texels' values and logged in the lane's
+    /// turn (a material with a normal map).
+    normal_map_reads: [TexelLines; 4],
     /// Every light is directional, so the four lanes take the same blocks
     /// ([`ShaderEnv::quad_colors`]).
     directional_only: bool,
@@ -400,7 +403,7 @@ impl ShaderEnv<'_> {
         // The side is the interpolated normal's, as in `directions`.
         let n = match (normal_map, points) {
             (Some((texture, scale)), Some(points)) => self
-                .normal_mapped_quad(n, points, texture, scale)
+                .normal_mapped_quad(n, points, texture, scale, &mut quad.normal_map_reads)
                 .negate_where_negative(n.dot(v), double_sided),
             _ => n.negate_where_negative(n.dot(v), double_sided),
         };
@@ -450,7 +453,7 @@ impl ShaderEnv<'_> {
         log: &mut AccessLog,
     ) -> Vec3 {
         blocks.take(Block::CoarseSetup);
-        self.log_normal_map(self.maps.of(material).normal, surface, blocks, log);
+        Self::log_normal_map(self.maps.of(material).normal, &quad.normal_map_reads[l], blocks, log);
         let (exponent, strength) = self.phong_parameters(material, surface, blocks, log);
         let mut terms = [LightTerm::default(); QUAD_LIGHTS];
         let terms = &mut terms[..self.lights.len()];
@@ -498,7 +501,7 @@ impl ShaderEnv<'_> {
         log: &mut AccessLog,
     ) {
         blocks.take(Block::CoarseSetup);
-        self.log_normal_map(self.maps.of(material).normal, surface, blocks, log);
+        Self::log_normal_map(self.maps.of(material).normal, &quad.normal_map_reads[l], blocks, log);
         let phong = self.phong_parameters(material, surface, blocks, log);
         for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
             self.lane_term(quad, l, k, phong, false, term, flags, log);
@@ -561,7 +564,7 @@ impl ShaderEnv<'_> {
             let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
             for (l, at) in points.iter().enumerate() {
                 blocks.take(Block::CoarseSetup);
-                self.log_normal_map(maps.normal, at, blocks, log);
+                Self::log_normal_map(maps.normal, &quad.normal_map_reads[l], blocks, log);
                 phong_parameters[l] = self.phong_parameters(material, at, blocks, log);
                 self.lane_visibilities(quad, l, shadowing, &mut scale, log);
                 surfaces[l] = self.surface(material, at, blocks, log);
@@ -902,11 +905,21 @@ impl ShaderEnv<'_> {
     }
 
     /// [`Self::normal_mapped`] of a quad's four lanes (`n` their normals), four lanes at a
-    /// time with each lane's operations; the texels' values only, nothing logged.
+    /// time with each lane's operations; each lane's reads kept in `reads`, not logged.
     #[inline(never)]
-    fn normal_mapped_quad(&self, n: Vec3x4, points: &[SurfacePoint; 4], texture: u32, scale: f32) -> Vec3x4 {
+    fn normal_mapped_quad(
+        &self,
+        n: Vec3x4,
+        points: &[SurfacePoint; 4],
+        texture: u32,
+        scale: f32,
+        reads: &mut [TexelLines; 4],
+    ) -> Vec3x4 {
         let map = &self.textures[texture as usize];
-        let texels = points.map(|at| map.value_at(at.uv, self.map_lod(texture, &at)));
+        let mut texels = [Vec4::ZERO; 4];
+        for ((texel, at), reads) in texels.iter_mut().zip(points).zip(reads) {
+            *texel = map.sample_recording(at.uv, self.map_lod(texture, at), reads);
+        }
         let tangent = Vec3x4::from_lanes(&points.map(|at| at.tangent.truncate()));
         let (t, usable) = (tangent - n.scale(n.dot(tangent))).try_normalize();
         let handedness = f32x4::new(points.map(|at| if at.tangent.w < 0.0 { -1.0 } else { 1.0 }));
@@ -974,27 +987,15 @@ impl ShaderEnv<'_> {
         }
     }
 
-    /// A lane's normal-map block and reads (the map's, where `normal` is), in their turn
-    /// among its others: [`Self::quad_lighting`] took the texels' values earlier.
+    /// A lane's normal-map block and reads (where the material has a normal map), in their
+    /// turn among its others: [`Self::quad_lighting`] took the texels' values and kept the
+    /// reads (`reads`) earlier.
     #[inline(always)]
-    fn log_normal_map(
-        &self,
-        normal: Option<(u32, f32)>,
-        at: &SurfacePoint,
-        blocks: &mut BlockSet,
-        log: &mut AccessLog,
-    ) {
-        if let Some((texture, _)) = normal {
+    fn log_normal_map(normal: Option<(u32, f32)>, reads: &TexelLines, blocks: &mut BlockSet, log: &mut AccessLog) {
+        if normal.is_some() {
             blocks.take(Block::NormalMap);
-            self.log_map_reads(texture, at, log);
+            reads.log(log);
         }
-    }
-
-    /// A surface map's reads at `at`, nothing else (out of line: the quads without a normal
-    /// map, which never call it, ran 2% slower with it inlined into theirs).
-    #[inline(never)]
-    fn log_map_reads(&self, texture: u32, at: &SurfacePoint, log: &mut AccessLog) {
-        self.textures[texture as usize].log_reads_at(at.uv, self.map_lod(texture, at), log);
     }
 
     /// The textures `material` may sample: base colour, metallic-roughness, occlusion,
