@@ -180,7 +180,7 @@ impl MipTexture {
     /// [`Self::sample_at`] with its reads kept in `reads` instead of logged: for a value
     /// wanted before its reads' turn in the log ([`TexelLines::log`] then logs them).
     pub fn sample_recording(&self, uv: Vec2, lod: Lod, reads: &mut TexelLines) -> Vec4 {
-        *reads = TexelLines::default();
+        reads.len = 0;
         self.trilinear(uv, lod, |line| reads.push(line))
     }
 
