@@ -916,10 +916,11 @@ impl ShaderEnv<'_> {
         reads: &mut [TexelLines; 4],
     ) -> Vec3x4 {
         let map = &self.textures[texture as usize];
-        let mut texels = [Vec4::ZERO; 4];
-        for ((texel, at), reads) in texels.iter_mut().zip(points).zip(reads) {
-            *texel = map.sample_recording(at.uv, self.map_lod(texture, at), reads);
-        }
+        let lods = points.map(|at| self.map_lod(texture, &at));
+        let texels = match lods.iter().all(|&lod| lod == lods[0]) {
+            true => map.sample_quad_recording(points.map(|at| at.uv), lods[0], reads),
+            false => std::array::from_fn(|l| map.sample_recording(points[l].uv, lods[l], &mut reads[l])),
+        };
         let tangent = Vec3x4::from_lanes(&points.map(|at| at.tangent.truncate()));
         let (t, usable) = (tangent - n.scale(n.dot(tangent))).try_normalize();
         let handedness = f32x4::new(points.map(|at| if at.tangent.w < 0.0 { -1.0 } else { 1.0 }));

@@ -6,8 +6,9 @@
 
 use glam::{Vec2, Vec4};
 use shadetrace_formats::{Texture, Wrap};
+use wide::f32x4;
 
-use crate::float::floor;
+use crate::float::{floor, floor4};
 use crate::memory::{AccessLog, Stream};
 
 /// Texels per block edge (8x8 RGBA8 texels = one 256-byte line).
@@ -24,9 +25,28 @@ pub struct Level {
 }
 
 impl Level {
-    #[inline]
-    fn line_of(&self, x: u32, y: u32) -> u64 {
-        self.base_line + ((y / BLOCK) * self.blocks_x + x / BLOCK) as u64
+    /// The bilinear blend of the 2x2 footprint of columns `u` and rows `v` with weights
+    /// `fx` and `fy`, `touch` called with each texel's line in fetch order (row by row).
+    /// A footprint inside one block (the usual case) touches its line once: the log drops
+    /// the three repeats.
+    #[inline(always)]
+    fn footprint(&self, [u0, u1]: [u32; 2], [v0, v1]: [u32; 2], fx: f32, fy: f32, touch: &mut impl FnMut(u64)) -> Vec4 {
+        let (row0, row1) = ((v0 / BLOCK) * self.blocks_x, (v1 / BLOCK) * self.blocks_x);
+        let (column0, column1) = (u0 / BLOCK, u1 / BLOCK);
+        let line = |row: u32, column: u32| self.base_line + u64::from(row + column);
+        touch(line(row0, column0));
+        if row0 != row1 || column0 != column1 {
+            touch(line(row0, column1));
+            touch(line(row1, column0));
+            touch(line(row1, column1));
+        }
+        let (top, bottom) = (
+            &self.texels[(v0 * self.width) as usize..],
+            &self.texels[(v1 * self.width) as usize..],
+        );
+        let top = top[u0 as usize] * (1.0 - fx) + top[u1 as usize] * fx;
+        let bottom = bottom[u0 as usize] * (1.0 - fx) + bottom[u1 as usize] * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 }
 
@@ -184,6 +204,59 @@ impl MipTexture {
         self.trilinear(uv, lod, |line| reads.push(line))
     }
 
+    /// [`Self::sample_recording`] of a quad's four lanes at one level of detail (a quad's
+    /// lanes share it): each lane's value and reads, its footprint found four lanes at a
+    /// time.
+    pub fn sample_quad_recording(
+        &self,
+        uvs: [Vec2; 4],
+        Lod { level, t }: Lod,
+        reads: &mut [TexelLines; 4],
+    ) -> [Vec4; 4] {
+        for lane in reads.iter_mut() {
+            lane.len = 0;
+        }
+        let l0 = level as usize;
+        let a = self.bilinear_quad(l0, uvs, reads);
+        if t > 0.0 && l0 + 1 < self.levels.len() {
+            let b = self.bilinear_quad(l0 + 1, uvs, reads);
+            std::array::from_fn(|l| a[l] * (1.0 - t) + b[l] * t)
+        } else {
+            a
+        }
+    }
+
+    /// [`Self::bilinear`] of four lanes, each lane's lines pushed to its record. A lane whose
+    /// footprint needs no wrapping (the usual case) takes its coordinates and weights from
+    /// the four-lane arithmetic, the same operations as `bilinear`'s; any other lane takes
+    /// `bilinear`.
+    #[inline(always)]
+    fn bilinear_quad(&self, level: usize, uvs: [Vec2; 4], reads: &mut [TexelLines; 4]) -> [Vec4; 4] {
+        let l = &self.levels[level];
+        let (width, height) = (l.width as f32, l.height as f32);
+        let x = f32x4::new(uvs.map(|uv| uv.x)) * f32x4::splat(width) - f32x4::splat(0.5);
+        let y = f32x4::new(uvs.map(|uv| uv.y)) * f32x4::splat(height) - f32x4::splat(0.5);
+        let (x0, y0) = (floor4(x), floor4(y));
+        // Both columns and both rows inside the level (false for NaN and infinities).
+        let inside = x0.simd_ge(f32x4::ZERO)
+            & x0.simd_le(f32x4::splat(width - 2.0))
+            & y0.simd_ge(f32x4::ZERO)
+            & y0.simd_le(f32x4::splat(height - 2.0));
+        let inside = inside.to_bitmask();
+        let (fx, fy) = ((x - x0).to_array(), (y - y0).to_array());
+        let (u0, v0) = (x0.fast_trunc_int().to_array(), y0.fast_trunc_int().to_array());
+        std::array::from_fn(|lane| {
+            let record = &mut reads[lane];
+            if inside & 1 << lane == 0 {
+                return self.bilinear(level, uvs[lane], &mut |line| record.push(line));
+            }
+            let (u, v) = (u0[lane] as u32, v0[lane] as u32);
+            l.footprint([u, u + 1], [v, v + 1], fx[lane], fy[lane], &mut |line| {
+                record.push(line)
+            })
+        })
+    }
+
     /// The trilinear sample, `touch` called with each texel's line, in fetch order.
     #[inline(always)]
     fn trilinear(&self, uv: Vec2, Lod { level, t }: Lod, mut touch: impl FnMut(u64)) -> Vec4 {
@@ -211,16 +284,12 @@ impl MipTexture {
             (0.0, 0.0)
         };
         let (x0, y0) = (x0 as i64, y0 as i64);
-        // The footprint's two columns and two rows, wrapped once each.
-        let (u0, u1) = (wrap(x0, l.width, self.wrap_u), wrap(x0 + 1, l.width, self.wrap_u));
-        let (v0, v1) = (wrap(y0, l.height, self.wrap_v), wrap(y0 + 1, l.height, self.wrap_v));
-        let mut fetch = |u: u32, v: u32| {
-            touch(l.line_of(u, v));
-            l.texels[(v * l.width + u) as usize]
-        };
-        let top = fetch(u0, v0) * (1.0 - fx) + fetch(u1, v0) * fx;
-        let bottom = fetch(u0, v1) * (1.0 - fx) + fetch(u1, v1) * fx;
-        top * (1.0 - fy) + bottom * fy
+        // The footprint's two columns and two rows, wrapped once each (an infinite
+        // coordinate's i64::MAX steps to i64::MIN, in any build).
+        let (u1, v1) = (x0.wrapping_add(1), y0.wrapping_add(1));
+        let (u0, u1) = (wrap(x0, l.width, self.wrap_u), wrap(u1, l.width, self.wrap_u));
+        let (v0, v1) = (wrap(y0, l.height, self.wrap_v), wrap(v1, l.height, self.wrap_v));
+        l.footprint([u0, u1], [v0, v1], fx, fy, touch)
     }
 }
 
@@ -330,6 +399,86 @@ mod tests {
             reads.log(&mut got_log);
             proptest::prop_assert_eq!(got.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits));
             proptest::prop_assert_eq!(got_log.expanded(0, Stream::Texture), want_log.expanded(0, Stream::Texture));
+        }
+    }
+
+    /// A texture of `w x h` texels wrapped by `modes` (u, v).
+    fn wrapped(w: u32, h: u32, modes: (Wrap, Wrap)) -> MipTexture {
+        let mut texture = tex(w, h);
+        (texture.wrap_u, texture.wrap_v) = modes;
+        MipTexture::build(&texture, 0, true).0
+    }
+
+    fn wrap_modes() -> impl proptest::strategy::Strategy<Value = (Wrap, Wrap)> {
+        let mode = || proptest::sample::select(vec![Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat]);
+        (mode(), mode())
+    }
+
+    /// Coordinates across the texture and past it, and the extremes.
+    fn coordinate() -> impl proptest::strategy::Strategy<Value = f32> {
+        proptest::prop_oneof![
+            8 => -3.0f32..3.0,
+            1 => proptest::sample::select(vec![f32::NAN, f32::INFINITY, -f32::INFINITY, 3e9, -3e9, 1e30]),
+        ]
+    }
+
+    proptest::proptest! {
+        /// A sample reads, in order, the line of each texel it blends: the finer level's
+        /// 2x2 footprint row by row, then the coarser one's when it blends two (the log
+        /// drops a line straight after itself, which a footprint in one block repeats).
+        #[test]
+        fn a_sample_reads_each_texels_line(
+            u in coordinate(),
+            v in coordinate(),
+            level in 0u32..6,
+            t in proptest::prop_oneof![proptest::strategy::Just(0.0f32), 0.0f32..1.0],
+            modes in wrap_modes(),
+        ) {
+            let m = wrapped(37, 20, modes);
+            let mut want = AccessLog::new();
+            let levels = match t > 0.0 && (level as usize) + 1 < m.levels.len() {
+                true => level..level + 2,
+                false => level..level + 1,
+            };
+            for l in levels.map(|l| &m.levels[l as usize]) {
+                let (x, y) = (u * l.width as f32 - 0.5, v * l.height as f32 - 0.5);
+                let (x0, y0) = (x.floor() as i64, y.floor() as i64);
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (tu, tv) = (wrap(x0.wrapping_add(dx), l.width, modes.0), wrap(y0.wrapping_add(dy), l.height, modes.1));
+                    let line = l.base_line + u64::from((tv / BLOCK) * l.blocks_x + tu / BLOCK);
+                    want.touch(Stream::Texture, line, false);
+                }
+            }
+            let mut got = AccessLog::new();
+            m.sample_at(Vec2::new(u, v), Lod { level, t }, &mut got);
+            proptest::prop_assert_eq!(got.expanded(0, Stream::Texture), want.expanded(0, Stream::Texture));
+        }
+
+        /// A quad's four lanes sampled together are each lane's own recorded sample: the
+        /// value's bits and the reads, wrapped, clamped or mirrored, at coordinates inside
+        /// the texture, past it and not finite, on levels as narrow as one texel.
+        #[test]
+        fn a_quads_samples_are_each_lanes_own(
+            uvs in proptest::array::uniform4((coordinate(), coordinate())),
+            size in proptest::sample::select(vec![(37u32, 20u32), (1, 9), (2, 2)]),
+            level in 0u32..6,
+            t in proptest::prop_oneof![proptest::strategy::Just(0.0f32), 0.0f32..1.0],
+            modes in wrap_modes(),
+        ) {
+            let m = wrapped(size.0, size.1, modes);
+            let level = level.min(m.levels.len() as u32 - 1);
+            let (uvs, lod) = (uvs.map(|(u, v)| Vec2::new(u, v)), Lod { level, t });
+            let mut reads = [TexelLines::default(); 4];
+            let got = m.sample_quad_recording(uvs, lod, &mut reads);
+            for lane in 0..4 {
+                let mut want_reads = TexelLines::default();
+                let want = m.sample_recording(uvs[lane], lod, &mut want_reads);
+                proptest::prop_assert_eq!(got[lane].to_array().map(f32::to_bits), want.to_array().map(f32::to_bits));
+                proptest::prop_assert_eq!(
+                    &reads[lane].lines[..usize::from(reads[lane].len)],
+                    &want_reads.lines[..usize::from(want_reads.len)]
+                );
+            }
         }
     }
 
