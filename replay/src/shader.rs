@@ -138,6 +138,34 @@ impl TextureLods {
     }
 }
 
+/// The most surface maps (base colour, metallic-roughness, occlusion, emissive) a quad
+/// samples ahead of its lanes.
+const SURFACE_MAPS: usize = 4;
+
+/// A quad's surface-map texels, sampled four lanes at a time before the lanes run
+/// ([`ShaderEnv::quad_colors`]): per texture its four lanes' values and reads, each lane's
+/// logged when the lane reads the texture in its turn.
+#[derive(Default)]
+pub struct QuadTexels {
+    textures: [u32; SURFACE_MAPS],
+    values: [[Vec4; 4]; SURFACE_MAPS],
+    reads: [[TexelLines; 4]; SURFACE_MAPS],
+    len: usize,
+}
+
+impl QuadTexels {
+    /// Lane `l`'s texel of `texture`, its reads logged as the lane's sample would log them.
+    #[inline(always)]
+    fn lane(&self, texture: u32, l: usize, log: &mut AccessLog) -> Vec4 {
+        let i = self.textures[..self.len]
+            .iter()
+            .position(|&t| t == texture)
+            .expect("a quad samples every surface map its lanes read");
+        self.reads[i][l].log(log);
+        self.values[i][l]
+    }
+}
+
 /// Interpolated inputs of the coarse-able lighting.
 #[derive(Clone, Copy, Debug)]
 pub struct LightingInputs {
@@ -281,6 +309,8 @@ pub struct QuadLighting {
     /// Each lane's normal-map reads, taken with the texels' values and logged in the lane's
     /// turn (a material with a normal map).
     normal_map_reads: [TexelLines; 4],
+    /// The quad's surface maps' texels ([`ShaderEnv::quad_colors`]).
+    texels: QuadTexels,
     /// Every light is directional, so the four lanes take the same blocks
     /// ([`ShaderEnv::quad_colors`]).
     directional_only: bool,
@@ -517,7 +547,7 @@ impl ShaderEnv<'_> {
     /// with nothing read or taken, where lanes could differ.
     pub fn quad_colors(
         &self,
-        quad: &QuadLighting,
+        quad: &mut QuadLighting,
         material: u32,
         points: &[SurfacePoint; 4],
         list: Option<&[u32]>,
@@ -560,14 +590,17 @@ impl ShaderEnv<'_> {
         // Two loops rather than a test per lane: the one loop compiled to about 100 more
         // instructions per quad.
         let (phong_parameters, surfaces) = if textured {
+            self.sample_surface_maps(material, points, true, &mut quad.texels);
+            let quad = &*quad;
             let mut phong_parameters = [(0.0, 0.0); 4];
             let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
-            for (l, at) in points.iter().enumerate() {
+            for l in 0..4 {
+                let texel = |texture: u32, log: &mut AccessLog| quad.texels.lane(texture, l, log);
                 blocks.take(Block::CoarseSetup);
                 Self::log_normal_map(maps.normal, &quad.normal_map_reads[l], blocks, log);
-                phong_parameters[l] = self.phong_parameters(material, at, blocks, log);
+                phong_parameters[l] = self.phong_parameters_of(material, blocks, log, texel);
                 self.lane_visibilities(quad, l, shadowing, &mut scale, log);
-                surfaces[l] = self.surface(material, at, blocks, log);
+                surfaces[l] = self.lane_surface(material, &quad.texels, l, blocks, log);
             }
             (phong_parameters, surfaces)
         } else {
@@ -743,6 +776,19 @@ impl ShaderEnv<'_> {
         blocks: &mut BlockSet,
         log: &mut AccessLog,
     ) -> (f32, f32) {
+        self.phong_parameters_of(material, blocks, log, |texture, log| self.sample_map(texture, at, log))
+    }
+
+    /// [`Self::phong_parameters`] with the map's texel from `texel` (a texture's sample at
+    /// the point, its reads logged).
+    #[inline(always)]
+    fn phong_parameters_of(
+        &self,
+        material: u32,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+        texel: impl FnOnce(u32, &mut AccessLog) -> Vec4,
+    ) -> (f32, f32) {
         match self.maps.of(material).metallic_roughness {
             None => {
                 let material = &self.materials[material as usize];
@@ -750,7 +796,7 @@ impl ShaderEnv<'_> {
             }
             Some((texture, roughness, metallic)) => {
                 blocks.take(Block::MetallicRoughnessMap);
-                let texel = self.sample_map(texture, at, log);
+                let texel = texel(texture, log);
                 phong_from_metallic_roughness(roughness * texel.y, metallic * texel.z)
             }
         }
@@ -915,12 +961,7 @@ impl ShaderEnv<'_> {
         scale: f32,
         reads: &mut [TexelLines; 4],
     ) -> Vec3x4 {
-        let map = &self.textures[texture as usize];
-        let lods = points.map(|at| self.map_lod(texture, &at));
-        let texels = match lods.iter().all(|&lod| lod == lods[0]) {
-            true => map.sample_quad_recording(points.map(|at| at.uv), lods[0], reads),
-            false => std::array::from_fn(|l| map.sample_recording(points[l].uv, lods[l], &mut reads[l])),
-        };
+        let texels = self.sample_quad_map(texture, points, reads);
         let tangent = Vec3x4::from_lanes(&points.map(|at| at.tangent.truncate()));
         let (t, usable) = (tangent - n.scale(n.dot(tangent))).try_normalize();
         let handedness = f32x4::new(points.map(|at| if at.tangent.w < 0.0 { -1.0 } else { 1.0 }));
@@ -959,18 +1000,68 @@ impl ShaderEnv<'_> {
     /// [`Self::albedo`] at a surface point.
     #[inline(always)]
     fn albedo_at(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Vec4 {
+        self.albedo_of(material, blocks, log, &mut |texture, log| {
+            self.sample_map(texture, at, log)
+        })
+    }
+
+    /// [`Self::albedo`] with the texture's texel from `texel`.
+    #[inline(always)]
+    fn albedo_of(
+        &self,
+        material: u32,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+        texel: &mut impl FnMut(u32, &mut AccessLog) -> Vec4,
+    ) -> Vec4 {
         blocks.take(Block::FineSetup);
         let m = &self.materials[material as usize];
         let base = Vec4::from(m.base_color);
         match m.base_color_texture {
             Some(t) => {
                 blocks.take(Block::AlbedoTextured);
-                base * self.sample_map(t, at, log)
+                base * texel(t, log)
             }
             None => {
                 blocks.take(Block::AlbedoConstant);
                 base
             }
+        }
+    }
+
+    /// A map's samples at a quad's four points, each lane's reads kept in `reads`: four
+    /// lanes at a time where they share a level of detail (a quad's points do), else lane
+    /// by lane.
+    fn sample_quad_map(&self, texture: u32, points: &[SurfacePoint; 4], reads: &mut [TexelLines; 4]) -> [Vec4; 4] {
+        let map = &self.textures[texture as usize];
+        let lods: [Lod; 4] = std::array::from_fn(|l| self.map_lod(texture, &points[l]));
+        match lods.iter().all(|&lod| lod == lods[0]) {
+            true => map.sample_quad_recording(std::array::from_fn(|l| points[l].uv), lods[0], reads),
+            false => std::array::from_fn(|l| map.sample_recording(points[l].uv, lods[l], &mut reads[l])),
+        }
+    }
+
+    /// Samples every map a lane of `material` reads in [`Self::surface`], and in
+    /// [`Self::phong_parameters`] where `phong`, at the quad's points into `texels`, each
+    /// texture once.
+    pub fn sample_surface_maps(&self, material: u32, points: &[SurfacePoint; 4], phong: bool, texels: &mut QuadTexels) {
+        let maps = self.maps.of(material);
+        let emissive = !is_zero(Vec3::from_array(maps.emissive));
+        let read = [
+            self.materials[material as usize].base_color_texture,
+            maps.metallic_roughness.filter(|_| phong).map(|(texture, ..)| texture),
+            maps.occlusion.map(|(texture, _)| texture),
+            maps.emissive_texture.filter(|_| emissive),
+        ];
+        texels.len = 0;
+        for texture in read.into_iter().flatten() {
+            if texels.textures[..texels.len].contains(&texture) {
+                continue;
+            }
+            let i = texels.len;
+            texels.textures[i] = texture;
+            texels.values[i] = self.sample_quad_map(texture, points, &mut texels.reads[i]);
+            texels.len += 1;
         }
     }
 
@@ -1035,11 +1126,38 @@ impl ShaderEnv<'_> {
     /// the material's maps (nothing more for a material without them).
     #[inline(always)]
     pub fn surface(&self, material: u32, at: &SurfacePoint, blocks: &mut BlockSet, log: &mut AccessLog) -> Surface {
-        let mut surface = Surface::of_albedo(self.albedo_at(material, at, blocks, log));
+        self.surface_of(material, blocks, log, |texture, log| self.sample_map(texture, at, log))
+    }
+
+    /// Lane `l`'s [`Self::surface`] from its quad's texels ([`Self::sample_surface_maps`]):
+    /// the lane's blocks, and its reads logged in its turn.
+    #[inline(always)]
+    pub fn lane_surface(
+        &self,
+        material: u32,
+        texels: &QuadTexels,
+        l: usize,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) -> Surface {
+        self.surface_of(material, blocks, log, |texture, log| texels.lane(texture, l, log))
+    }
+
+    /// [`Self::surface`] with each map's texel from `texel` (a texture's sample at the
+    /// point, its reads logged).
+    #[inline(always)]
+    fn surface_of(
+        &self,
+        material: u32,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+        mut texel: impl FnMut(u32, &mut AccessLog) -> Vec4,
+    ) -> Surface {
+        let mut surface = Surface::of_albedo(self.albedo_of(material, blocks, log, &mut texel));
         let maps = self.maps.of(material);
         if let Some((texture, strength)) = maps.occlusion {
             blocks.take(Block::OcclusionMap);
-            let ao = self.sample_map(texture, at, log).x;
+            let ao = texel(texture, log).x;
             surface.occlusion = 1.0 + strength * (ao - 1.0);
         }
         let emissive = Vec3::from_array(maps.emissive);
@@ -1047,7 +1165,7 @@ impl ShaderEnv<'_> {
             surface.emission = match maps.emissive_texture {
                 Some(texture) => {
                     blocks.take(Block::EmissiveTextured);
-                    emissive * self.sample_map(texture, at, log).truncate()
+                    emissive * texel(texture, log).truncate()
                 }
                 None => {
                     blocks.take(Block::EmissiveConstant);
@@ -1530,7 +1648,7 @@ mod tests {
             let list = list.as_deref();
             let (mut quad_log, mut lane_log) = (AccessLog::new(), AccessLog::new());
             let mut quad_blocks = BlockSet::new(lights.len());
-            let together = env.quad_colors(&quad, 0, &quad_points, list, &mut quad_blocks, &mut quad_log);
+            let together = env.quad_colors(&mut quad, 0, &quad_points, list, &mut quad_blocks, &mut quad_log);
             let reads = |log: &AccessLog| log.expanded(0, crate::memory::Stream::Texture);
             let Some(together) = together else {
                 prop_assert!(point_light);

@@ -248,13 +248,20 @@ impl MipTexture {
         std::array::from_fn(|lane| {
             let record = &mut reads[lane];
             if inside & 1 << lane == 0 {
-                return self.bilinear(level, uvs[lane], &mut |line| record.push(line));
+                return self.bilinear_recorded(level, uvs[lane], record);
             }
             let (u, v) = (u0[lane] as u32, v0[lane] as u32);
             l.footprint([u, u + 1], [v, v + 1], fx[lane], fy[lane], &mut |line| {
                 record.push(line)
             })
         })
+    }
+
+    /// [`Self::bilinear`] with its lines pushed to `record`, for the lanes of a quad that
+    /// wrap: out of line, as inlined into the four-lane loop it slowed every lane.
+    #[inline(never)]
+    fn bilinear_recorded(&self, level: usize, uv: Vec2, record: &mut TexelLines) -> Vec4 {
+        self.bilinear(level, uv, &mut |line| record.push(line))
     }
 
     /// The trilinear sample, `touch` called with each texel's line, in fetch order.

@@ -106,7 +106,7 @@ impl SchemeJob for PerPixelJob {
             let together = match quad_lit {
                 true => ctx
                     .env
-                    .quad_colors(&self.quad, material, points, list, &mut self.blocks, acc.log),
+                    .quad_colors(&mut self.quad, material, points, list, &mut self.blocks, acc.log),
                 false => None,
             };
             if let Some(out) = together {

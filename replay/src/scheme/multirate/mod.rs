@@ -29,7 +29,9 @@ use crate::cost_table::Block;
 use crate::lanes::Vec3x4;
 use crate::memory::AccessLog;
 use crate::options::ReplayOptions;
-use crate::shader::{compose, compose_quad, Effects, LightTerm, LightingInputs, QuadLighting, Surface, SurfacePoint};
+use crate::shader::{
+    compose, compose_quad, Effects, LightTerm, LightingInputs, QuadLighting, QuadTexels, Surface, SurfacePoint,
+};
 use block::{corner_attributes, corner_surfaces, CoarseBlock};
 pub use config::{
     CacheConfig, CacheSpace, CoarseMode, MultirateConfig, ReuseTest, Sampling, SimdSchedule, Thresholds,
@@ -129,6 +131,7 @@ impl MultirateJob {
             quad_levels: Vec::new(),
             sources: Vec::new(),
             quad: QuadLighting::default(),
+            texels: QuadTexels::default(),
         }
     }
 }
@@ -219,6 +222,9 @@ struct MultirateJob {
     sources: Vec<[LaneSource; 4]>,
     /// The coarse stage's four corners, shaded as a quad's lanes ([`ShaderEnv::quad_lighting`]).
     quad: QuadLighting,
+    /// A resampled quad's surface maps, sampled four lanes at a time
+    /// ([`ShaderEnv::sample_surface_maps`]).
+    texels: QuadTexels,
 }
 
 impl SchemeJob for MultirateJob {
@@ -584,13 +590,16 @@ impl MultirateJob {
         acc: &mut Accounting,
     ) -> [Vec4; 4] {
         let material = ctx.triangle.material;
+        ctx.env.sample_surface_maps(material, points, false, &mut self.texels);
         let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
         for (l, surface) in surfaces.iter_mut().enumerate() {
             let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
             let f = self.fine_lane();
             let fine = &mut self.fine_lanes[f];
             fine.blocks.take(Block::Resample);
-            *surface = ctx.env.surface(material, &points[l], &mut fine.blocks, acc.log);
+            *surface = ctx
+                .env
+                .lane_surface(material, &self.texels, l, &mut fine.blocks, acc.log);
             fine.blocks.take(Block::Compose);
             let useful = quad.lanes & (1 << l) != 0;
             let pixel = acc.heat.pixel(|| ctx.pixel_id(x, y));
