@@ -220,7 +220,7 @@ impl MipTexture {
         let a = self.bilinear_quad(l0, uvs, reads);
         if t > 0.0 && l0 + 1 < self.levels.len() {
             let b = self.bilinear_quad(l0 + 1, uvs, reads);
-            std::array::from_fn(|l| a[l] * (1.0 - t) + b[l] * t)
+            [0, 1, 2, 3].map(|l| a[l] * (1.0 - t) + b[l] * t)
         } else {
             a
         }
@@ -245,16 +245,20 @@ impl MipTexture {
         let inside = inside.to_bitmask();
         let (fx, fy) = ((x - x0).to_array(), (y - y0).to_array());
         let (u0, v0) = (x0.fast_trunc_int().to_array(), y0.fast_trunc_int().to_array());
-        std::array::from_fn(|lane| {
-            let record = &mut reads[lane];
-            if inside & 1 << lane == 0 {
-                return self.bilinear_recorded(level, uvs[lane], record);
-            }
-            let (u, v) = (u0[lane] as u32, v0[lane] as u32);
-            l.footprint([u, u + 1], [v, v + 1], fx[lane], fy[lane], &mut |line| {
-                record.push(line)
-            })
-        })
+        // A loop rather than `array::from_fn`, whose closure was left out of line.
+        let mut out = [Vec4::ZERO; 4];
+        for (lane, (out, record)) in out.iter_mut().zip(reads).enumerate() {
+            *out = match inside & 1 << lane {
+                0 => self.bilinear_recorded(level, uvs[lane], record),
+                _ => {
+                    let (u, v) = (u0[lane] as u32, v0[lane] as u32);
+                    l.footprint([u, u + 1], [v, v + 1], fx[lane], fy[lane], &mut |line| {
+                        record.push(line)
+                    })
+                }
+            };
+        }
+        out
     }
 
     /// [`Self::bilinear`] with its lines pushed to `record`, for the lanes of a quad that
