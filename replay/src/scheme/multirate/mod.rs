@@ -590,7 +590,10 @@ impl MultirateJob {
         acc: &mut Accounting,
     ) -> [Vec4; 4] {
         let material = ctx.triangle.material;
-        ctx.env.sample_surface_maps(material, points, false, &mut self.texels);
+        // (A material without textures reads none: its lanes never ask for a texel.)
+        if ctx.env.samples_textures(material) {
+            ctx.env.sample_surface_maps(material, points, false, &mut self.texels);
+        }
         let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
         for (l, surface) in surfaces.iter_mut().enumerate() {
             let (x, y) = (quad.x + (l as u32 & 1), quad.y + (l as u32 >> 1));
