@@ -1115,8 +1115,17 @@ impl ShaderEnv<'_> {
     pub fn texture_lods(&self, material: u32, dx: Vec2, dy: Vec2) -> Option<TextureLods> {
         let mut lods = TextureLods::default();
         for texture in self.material_textures(material).into_iter().flatten() {
+            let map = &self.textures[texture as usize];
+            // A texture shaped like an earlier one (often: the same texture, or a
+            // material's maps of one size) has its level of detail.
+            let earlier = lods.textures[..lods.len]
+                .iter()
+                .position(|&t| self.textures[t as usize].same_shape(map));
             lods.textures[lods.len] = texture;
-            lods.lods[lods.len] = self.textures[texture as usize].lod(dx, dy);
+            lods.lods[lods.len] = match earlier {
+                Some(i) => lods.lods[i],
+                None => map.lod(dx, dy),
+            };
             lods.len += 1;
         }
         (lods.len > 0).then_some(lods)

@@ -192,6 +192,13 @@ impl MipTexture {
         }
     }
 
+    /// Whether `other`'s chain has this one's base size and number of levels: then its
+    /// [`Self::lod`] at any derivatives is this one's (it reads nothing else).
+    pub fn same_shape(&self, other: &MipTexture) -> bool {
+        let (a, b) = (&self.levels[0], &other.levels[0]);
+        (a.width, a.height, self.levels.len()) == (b.width, b.height, other.levels.len())
+    }
+
     /// [`Self::sample`] at a level of detail already found ([`Self::lod`]).
     pub fn sample_at(&self, uv: Vec2, lod: Lod, log: &mut AccessLog) -> Vec4 {
         self.trilinear(uv, lod, |line| log.touch(Stream::Texture, line, false))
@@ -489,6 +496,22 @@ mod tests {
                     &reads[lane].lines[..usize::from(reads[lane].len)],
                     &want_reads.lines[..usize::from(want_reads.len)]
                 );
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// Textures of the same shape find the same level of detail at any derivatives
+        /// (what lets a quad find one per shape); shapes that differ in one size only do not.
+        #[test]
+        fn a_shape_decides_the_level_of_detail(
+            shapes in proptest::array::uniform2(proptest::sample::select(vec![(16u32, 16u32), (64, 16), (64, 32), (16, 64), (32, 64)])),
+            derivatives in proptest::array::uniform4(proptest::prop_oneof![-0.5f32..0.5, -0.01f32..0.01]),
+        ) {
+            let [a, b] = shapes.map(|(w, h)| MipTexture::build(&tex(w, h), 0, true).0);
+            let (dx, dy) = (Vec2::new(derivatives[0], derivatives[1]), Vec2::new(derivatives[2], derivatives[3]));
+            if a.same_shape(&b) {
+                proptest::prop_assert_eq!(a.lod(dx, dy), b.lod(dx, dy));
             }
         }
     }
