@@ -49,6 +49,7 @@ fn main() -> ExitCode {
     // print only the others.
     shadetrace_capture::contained::quiet_contained_panics();
     allocator::keep_freed_memory();
+    stop_quietly_on_closed_output();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Capture(args) => commands::capture::run(args),
@@ -68,5 +69,16 @@ fn main() -> ExitCode {
             eprintln!("error: {message}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Output piped into a reader that stops early (`shadetrace info T | head`) ends the process
+/// as it ends any Unix tool, by SIGPIPE, instead of a panic in `println!` (Rust ignores the
+/// signal by default).
+fn stop_quietly_on_closed_output() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: restores the signal's default action before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

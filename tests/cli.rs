@@ -605,3 +605,23 @@ fn corrupt_draco_gives_one_line_not_a_panic() {
     let o = shadetrace(&["capture", input.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_clean_failure(&o, "corrupt Draco data", Some(&out));
 }
+
+/// Output piped into a reader that has already closed (`shadetrace presets | head -0`) ends
+/// the process by SIGPIPE, as it ends any Unix tool, not in a panic.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[test]
+fn a_closed_output_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shadetrace"))
+        .arg("presets")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader closes before the process has written anything.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
+}
