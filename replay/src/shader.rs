@@ -542,9 +542,11 @@ impl ShaderEnv<'_> {
     /// [`Self::lane_lighting`], [`Self::surface`] and [`compose`], where the lanes take the
     /// same blocks (every light directional: a local light's range test differs from lane
     /// to lane). Each lane's reads stay its own, lane after lane in the lane's order (Phong
-    /// map, shadow footprints, surface maps); the rest runs four lanes at a time, with each
-    /// lane's operations. `blocks` (cleared by the caller) gets what each lane takes. None,
-    /// with nothing read or taken, where lanes could differ.
+    /// map, shadow footprints, surface maps: the maps' texels sampled for the four lanes
+    /// first, [`Self::sample_surface_maps`] into `quad`, and each lane's reads logged in its
+    /// turn); the rest runs four lanes at a time, with each lane's operations. `blocks`
+    /// (cleared by the caller) gets what each lane takes. None, with nothing read or taken,
+    /// where lanes could differ.
     pub fn quad_colors(
         &self,
         quad: &mut QuadLighting,
