@@ -391,13 +391,13 @@ fn draw_map<'a>(tris: impl Iterator<Item = &'a SetupTriangle>, size: u32) -> (Ve
                 x1: size,
                 y1: ((band + 1) * BAND).min(size),
             };
-            // Nearest first, so that the texels it already holds nearer than a triangle's
-            // nearest vertex skip its depths. A texel keeps the minimum of its depths, the
+            // Nearest first (a radix sort on the nearest vertex's depth), so that the texels
+            // it already holds nearer than a triangle's nearest vertex skip its depths. A texel keeps the minimum of its depths, the
             // same in any order: NaN never wins, and of two zeros, whose sign may now
             // differ, no comparison tells one from the other.
             let mut near_first = candidates;
             near_first.retain(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0);
-            near_first.sort_by(|a, b| a.z_min.total_cmp(&b.z_min));
+            radsort::sort_by_key(&mut near_first, |t| t.z_min);
             for t in near_first {
                 rasterize_rows(t, rect, |y, x0, x1| {
                     let start = ((y - rect.y0) * size) as usize;
