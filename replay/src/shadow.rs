@@ -392,9 +392,10 @@ fn draw_map<'a>(tris: impl Iterator<Item = &'a SetupTriangle>, size: u32) -> (Ve
                 y1: ((band + 1) * BAND).min(size),
             };
             // Nearest first (a radix sort on the nearest vertex's depth), so that the texels
-            // it already holds nearer than a triangle's nearest vertex skip its depths. A texel keeps the minimum of its depths, the
-            // same in any order: NaN never wins, and of two zeros, whose sign may now
-            // differ, no comparison tells one from the other.
+            // it already holds nearer than a triangle's nearest vertex skip its depths. A
+            // texel keeps the minimum of its depths, the same in any order: NaN never wins,
+            // and of two zeros, whose sign may now differ, no comparison tells one from the
+            // other.
             let mut near_first = candidates;
             near_first.retain(|t| t.bbox[1] < rect.y1 && t.bbox[3] >= rect.y0);
             radsort::sort_by_key(&mut near_first, |t| t.z_min);
