@@ -138,29 +138,31 @@ impl TextureLods {
     }
 }
 
-/// The most surface maps (base colour, metallic-roughness, occlusion, emissive) a quad
-/// samples ahead of its lanes.
-const SURFACE_MAPS: usize = 4;
-
-/// A quad's surface-map texels, sampled four lanes at a time before the lanes run
-/// ([`ShaderEnv::quad_colors`]): per texture its four lanes' values and reads, each lane's
-/// logged when the lane reads the texture in its turn.
+/// A quad's texels, each texture its material reads sampled once for the four lanes before
+/// the lanes run (the normal map by [`ShaderEnv::quad_lighting`], the surface maps by
+/// [`ShaderEnv::sample_surface_maps`]): per texture its four lanes' values and reads, each
+/// lane's reads logged when the lane reads the texture in its turn.
 #[derive(Default)]
 pub struct QuadTexels {
-    textures: [u32; SURFACE_MAPS],
-    values: [[Vec4; 4]; SURFACE_MAPS],
-    reads: [[TexelLines; 4]; SURFACE_MAPS],
+    textures: [u32; MATERIAL_TEXTURES],
+    values: [[Vec4; 4]; MATERIAL_TEXTURES],
+    reads: [[TexelLines; 4]; MATERIAL_TEXTURES],
     len: usize,
 }
 
 impl QuadTexels {
+    /// Empty, for the next quad.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
     /// Lane `l`'s texel of `texture`, its reads logged as the lane's sample would log them.
     #[inline(always)]
     fn lane(&self, texture: u32, l: usize, log: &mut AccessLog) -> Vec4 {
         let i = self.textures[..self.len]
             .iter()
             .position(|&t| t == texture)
-            .expect("a quad samples every surface map its lanes read");
+            .expect("a quad samples every map its lanes read");
         self.reads[i][l].log(log);
         self.values[i][l]
     }
@@ -306,10 +308,8 @@ pub struct QuadLighting {
     n_dot_l: [[f32; 4]; QUAD_LIGHTS],
     r_dot_l: [[f32; 4]; QUAD_LIGHTS],
     footprints: [[Option<PcfFootprint>; 4]; QUAD_LIGHTS],
-    /// Each lane's normal-map reads, taken with the texels' values and logged in the lane's
-    /// turn (a material with a normal map).
-    normal_map_reads: [TexelLines; 4],
-    /// The quad's surface maps' texels ([`ShaderEnv::quad_colors`]).
+    /// The quad's texels: its normal map's, and its surface maps' where
+    /// [`ShaderEnv::quad_colors`] finishes the quad.
     texels: QuadTexels,
     /// Every light is directional, so the four lanes take the same blocks
     /// ([`ShaderEnv::quad_colors`]).
@@ -426,15 +426,18 @@ impl ShaderEnv<'_> {
         if (normal_map.is_some() && points.is_none()) || self.lights.len() > QUAD_LIGHTS {
             return false;
         }
+        quad.texels.clear();
         let double_sided = self.materials[material as usize].double_sided;
         let p = positions;
         let v = (Vec3x4::splat(eye) - p).normalize_or(Vec3x4::splat(Vec3::Z));
         let n = normals.normalize_or(Vec3x4::splat(Vec3::Y));
         // The side is the interpolated normal's, as in `directions`.
         let n = match (normal_map, points) {
-            (Some((texture, scale)), Some(points)) => self
-                .normal_mapped_quad(n, points, texture, scale, &mut quad.normal_map_reads)
-                .negate_where_negative(n.dot(v), double_sided),
+            (Some((texture, scale)), Some(points)) => {
+                let texels = self.sample_quad_texture(texture, points, &mut quad.texels);
+                self.normal_mapped_quad(n, points, texels, scale)
+                    .negate_where_negative(n.dot(v), double_sided)
+            }
             _ => n.negate_where_negative(n.dot(v), double_sided),
         };
         let twice = n.dot(v) * f32x4::splat(2.0);
@@ -483,7 +486,7 @@ impl ShaderEnv<'_> {
         log: &mut AccessLog,
     ) -> Vec3 {
         blocks.take(Block::CoarseSetup);
-        Self::log_normal_map(self.maps.of(material).normal, &quad.normal_map_reads[l], blocks, log);
+        Self::log_normal_map(self.maps.of(material).normal, &quad.texels, l, blocks, log);
         let (exponent, strength) = self.phong_parameters(material, surface, blocks, log);
         let mut terms = [LightTerm::default(); QUAD_LIGHTS];
         let terms = &mut terms[..self.lights.len()];
@@ -531,7 +534,7 @@ impl ShaderEnv<'_> {
         log: &mut AccessLog,
     ) {
         blocks.take(Block::CoarseSetup);
-        Self::log_normal_map(self.maps.of(material).normal, &quad.normal_map_reads[l], blocks, log);
+        Self::log_normal_map(self.maps.of(material).normal, &quad.texels, l, blocks, log);
         let phong = self.phong_parameters(material, surface, blocks, log);
         for (k, (term, flags)) in terms.iter_mut().zip(blocks.lights.iter_mut()).enumerate() {
             self.lane_term(quad, l, k, phong, false, term, flags, log);
@@ -599,7 +602,7 @@ impl ShaderEnv<'_> {
             for l in 0..4 {
                 let texel = |texture: u32, log: &mut AccessLog| quad.texels.lane(texture, l, log);
                 blocks.take(Block::CoarseSetup);
-                Self::log_normal_map(maps.normal, &quad.normal_map_reads[l], blocks, log);
+                Self::log_normal_map(maps.normal, &quad.texels, l, blocks, log);
                 phong_parameters[l] = self.phong_parameters_of(material, blocks, log, texel);
                 self.lane_visibilities(quad, l, shadowing, &mut scale, log);
                 surfaces[l] = self.lane_surface(material, &quad.texels, l, blocks, log);
@@ -953,17 +956,9 @@ impl ShaderEnv<'_> {
     }
 
     /// [`Self::normal_mapped`] of a quad's four lanes (`n` their normals), four lanes at a
-    /// time with each lane's operations; each lane's reads kept in `reads`, not logged.
+    /// time with each lane's operations, from the lanes' normal-map `texels`.
     #[inline(never)]
-    fn normal_mapped_quad(
-        &self,
-        n: Vec3x4,
-        points: &[SurfacePoint; 4],
-        texture: u32,
-        scale: f32,
-        reads: &mut [TexelLines; 4],
-    ) -> Vec3x4 {
-        let texels = self.sample_quad_map(texture, points, reads);
+    fn normal_mapped_quad(&self, n: Vec3x4, points: &[SurfacePoint; 4], texels: [Vec4; 4], scale: f32) -> Vec3x4 {
         let tangent = Vec3x4::from_lanes(&points.map(|at| at.tangent.truncate()));
         let (t, usable) = (tangent - n.scale(n.dot(tangent))).try_normalize();
         let handedness = f32x4::new(points.map(|at| if at.tangent.w < 0.0 { -1.0 } else { 1.0 }));
@@ -1044,8 +1039,8 @@ impl ShaderEnv<'_> {
     }
 
     /// Samples every map a lane of `material` reads in [`Self::surface`], and in
-    /// [`Self::phong_parameters`] where `phong`, at the quad's points into `texels`, each
-    /// texture once.
+    /// [`Self::phong_parameters`] where `phong`, at the quad's points into `texels` (each
+    /// texture once: one already there, the normal map's, is not sampled again).
     pub fn sample_surface_maps(&self, material: u32, points: &[SurfacePoint; 4], phong: bool, texels: &mut QuadTexels) {
         let maps = self.maps.of(material);
         let emissive = !is_zero(Vec3::from_array(maps.emissive));
@@ -1055,16 +1050,21 @@ impl ShaderEnv<'_> {
             maps.occlusion.map(|(texture, _)| texture),
             maps.emissive_texture.filter(|_| emissive),
         ];
-        texels.len = 0;
         for texture in read.into_iter().flatten() {
-            if texels.textures[..texels.len].contains(&texture) {
-                continue;
-            }
-            let i = texels.len;
-            texels.textures[i] = texture;
-            texels.values[i] = self.sample_quad_map(texture, points, &mut texels.reads[i]);
-            texels.len += 1;
+            self.sample_quad_texture(texture, points, texels);
         }
+    }
+
+    /// `texture`'s texels at the quad's points, sampled into `texels` unless already there.
+    fn sample_quad_texture(&self, texture: u32, points: &[SurfacePoint; 4], texels: &mut QuadTexels) -> [Vec4; 4] {
+        if let Some(i) = texels.textures[..texels.len].iter().position(|&t| t == texture) {
+            return texels.values[i];
+        }
+        let i = texels.len;
+        texels.textures[i] = texture;
+        texels.values[i] = self.sample_quad_map(texture, points, &mut texels.reads[i]);
+        texels.len += 1;
+        texels.values[i]
     }
 
     /// A surface map's trilinear sample where `at` says.
@@ -1081,14 +1081,20 @@ impl ShaderEnv<'_> {
         }
     }
 
-    /// A lane's normal-map block and reads (where the material has a normal map), in their
+    /// Lane `l`'s normal-map block and reads (where the material has a normal map), in their
     /// turn among its others: [`Self::quad_lighting`] took the texels' values and kept the
-    /// reads (`reads`) earlier.
+    /// reads in `texels` earlier.
     #[inline(always)]
-    fn log_normal_map(normal: Option<(u32, f32)>, reads: &TexelLines, blocks: &mut BlockSet, log: &mut AccessLog) {
-        if normal.is_some() {
+    fn log_normal_map(
+        normal: Option<(u32, f32)>,
+        texels: &QuadTexels,
+        l: usize,
+        blocks: &mut BlockSet,
+        log: &mut AccessLog,
+    ) {
+        if let Some((texture, _)) = normal {
             blocks.take(Block::NormalMap);
-            reads.log(log);
+            texels.lane(texture, l, log);
         }
     }
 

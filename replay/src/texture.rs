@@ -73,9 +73,9 @@ impl TexelLines {
         }
     }
 
-    /// Logs the sample's reads as [`MipTexture::sample_at`] does. Out of line, as the second
-    /// addressing it replaces was: inlined into the lane functions, that slowed the quads
-    /// without a normal map, which never call it, by 2%.
+    /// Logs the sample's reads as [`MipTexture::sample_at`] does. Out of line: inlined into
+    /// the lane functions, it slowed the quads that never call it (of materials without
+    /// textures) by 2%.
     #[inline(never)]
     pub fn log(&self, log: &mut AccessLog) {
         for &line in &self.lines[..usize::from(self.len)] {

@@ -592,6 +592,7 @@ impl MultirateJob {
         let material = ctx.triangle.material;
         // (A material without textures reads none: its lanes never ask for a texel.)
         if ctx.env.samples_textures(material) {
+            self.texels.clear();
             ctx.env.sample_surface_maps(material, points, false, &mut self.texels);
         }
         let mut surfaces = [Surface::of_albedo(Vec4::ZERO); 4];
